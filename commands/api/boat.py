@@ -1,0 +1,136 @@
+"""Boat API v1 (DESIGN §5): telemetry in, commands out, acks in. Thin: services do the work.
+
+The wire shapes are a contract with boats in the field, so these are explicit APIViews that
+build their JSON by hand rather than generic serializers.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from django.conf import settings
+from django.http import HttpResponseNotModified
+from drf_spectacular.types import OpenApiTypes
+from drf_spectacular.utils import OpenApiParameter, extend_schema, inline_serializer
+from rest_framework import serializers, status
+from rest_framework.exceptions import NotFound, ParseError, ValidationError
+from rest_framework.request import Request
+from rest_framework.response import Response
+from rest_framework.views import APIView
+
+from commands.lifecycle import TransitionError
+from commands.models import Command
+from commands.services import CommandError, CommandNotFound, command_ack, command_claim_open
+from fleet.api import Conflict
+from telemetry.services import fix_ingest
+from vessels.auth import VesselKeyAuthentication
+from vessels.models import Vessel
+from vessels.permissions import IsBoat
+
+
+def commands_etag(vessel: Vessel) -> str:
+    """Changes whenever the vessel's open command list does (Vessel.commands_version)."""
+    return f'"c{vessel.pk}.{vessel.commands_version}"'
+
+
+def command_wire(command: Command) -> dict[str, Any]:
+    return {
+        "uid": str(command.uid),
+        "kind": command.kind,
+        "params": command.params,
+        "created_at": command.created_at.isoformat(),
+        "expires_at": command.expires_at.isoformat() if command.expires_at else None,
+    }
+
+
+def records_from_body(data: Any, *, max_batch: int) -> list[Any]:
+    """A list of fixes, or {"fixes": [...]}; anything else is a 400 naming the problem."""
+    if isinstance(data, dict) and "fixes" in data:
+        data = data["fixes"]
+    if not isinstance(data, list):
+        raise ParseError('Expected a JSON list of fixes, or an object {"fixes": [...]}.')
+    if len(data) > max_batch:
+        raise ParseError(f"At most {max_batch} fixes per request (got {len(data)}).")
+    return data
+
+
+class BoatView(APIView):
+    authentication_classes = [VesselKeyAuthentication]
+    permission_classes = [IsBoat]
+
+    def vessel(self, request: Request) -> Vessel:
+        return request.user.vessel
+
+
+_IngestResult = inline_serializer(
+    "IngestResult",
+    {
+        "accepted": serializers.IntegerField(),
+        "duplicates": serializers.IntegerField(),
+        "rejected": serializers.ListField(child=serializers.DictField()),
+    },
+)
+
+
+class TelemetryView(BoatView):
+    @extend_schema(request=OpenApiTypes.OBJECT, responses={200: _IngestResult}, tags=["boat"])
+    def post(self, request: Request) -> Response:
+        """Store a batch of fixes. Bad fixes are reported by index; the good ones are kept."""
+        records = records_from_body(request.data, max_batch=settings.FIX_MAX_BATCH)
+        result = fix_ingest(vessel=self.vessel(request), records=records)
+        return Response(result.as_dict())
+
+
+class CommandListView(BoatView):
+    @extend_schema(
+        parameters=[OpenApiParameter("If-None-Match", str, OpenApiParameter.HEADER)],
+        responses={200: OpenApiTypes.OBJECT, 304: None},
+        tags=["boat"],
+    )
+    def get(self, request: Request) -> Response | HttpResponseNotModified:
+        """Open commands for this vessel, oldest first; `304` when the ETag still matches."""
+        vessel = self.vessel(request)
+        # Read before listing: if a command arrives meanwhile, the tag is older than the list
+        # and the boat just fetches once more; the other order could hide a command.
+        etag = commands_etag(vessel)
+        if request.META.get("HTTP_IF_NONE_MATCH") == etag:
+            response = HttpResponseNotModified()
+            response["ETag"] = etag
+            return response
+        commands = command_claim_open(vessel=vessel)
+        response = Response({"commands": [command_wire(c) for c in commands]})
+        response["ETag"] = etag
+        return response
+
+
+class AckView(BoatView):
+    @extend_schema(
+        request=inline_serializer(
+            "Ack",
+            {
+                "status": serializers.ChoiceField(["acknowledged", "done", "failed"]),
+                "detail": serializers.CharField(required=False),
+            },
+        ),
+        responses={200: OpenApiTypes.OBJECT},
+        tags=["boat"],
+    )
+    def post(self, request: Request, uid: str) -> Response:
+        """Report `acknowledged`, `done` or `failed` for a command. Idempotent."""
+        data = request.data
+        if not isinstance(data, dict):
+            raise ParseError('Expected a JSON object {"status": ..., "detail": ...}.')
+        detail = data.get("detail", "")
+        if not isinstance(detail, str):
+            raise ValidationError({"detail": ["must be a string"]})
+        try:
+            command, _changed = command_ack(
+                vessel=self.vessel(request), uid=uid, status=data.get("status"), detail=detail
+            )
+        except CommandNotFound as exc:
+            raise NotFound(str(exc)) from None
+        except TransitionError as exc:
+            raise Conflict(f"command is {exc.current}; it cannot become {exc.target}") from None
+        except CommandError as exc:
+            raise ValidationError({"status": [str(exc)]}) from None
+        return Response({"uid": str(command.uid), "status": command.status}, status.HTTP_200_OK)

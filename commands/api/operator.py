@@ -1,0 +1,112 @@
+"""Operator command API: list and create a vessel's commands, cancel one."""
+
+from __future__ import annotations
+
+import uuid
+from typing import Any
+
+from drf_spectacular.utils import extend_schema
+from rest_framework import generics, serializers, status
+from rest_framework.exceptions import NotFound, ValidationError
+from rest_framework.request import Request
+from rest_framework.response import Response
+from rest_framework.views import APIView
+
+from commands.catalog import CatalogError
+from commands.lifecycle import TransitionError
+from commands.models import Command, CommandEvent, Source
+from commands.services import CommandError, command_cancel, command_enqueue
+from fleet.api import Conflict
+from fleet.permissions import ChangeModelPermissions
+from vessels.selectors import vessel_by_slug
+
+
+class CommandEventSerializer(serializers.ModelSerializer):
+    class Meta:
+        model = CommandEvent
+        fields = ["at", "from_status", "to_status", "actor", "detail"]
+
+
+class CommandSerializer(serializers.ModelSerializer):
+    vessel = serializers.SlugRelatedField(slug_field="slug", read_only=True)
+    events = CommandEventSerializer(many=True, read_only=True)
+
+    class Meta:
+        model = Command
+        fields = [
+            "uid",
+            "vessel",
+            "kind",
+            "params",
+            "status",
+            "source",
+            "created_by",
+            "created_at",
+            "expires_at",
+            "sent_at",
+            "acknowledged_at",
+            "finished_at",
+            "result_detail",
+            "events",
+        ]
+        read_only_fields = fields
+
+
+class CommandCreateSerializer(serializers.Serializer):
+    """Shape only; the catalog (via command_enqueue) decides what is valid."""
+
+    kind = serializers.CharField()
+    params = serializers.JSONField(required=False, default=dict)
+    expires_at = serializers.DateTimeField(required=False, allow_null=True)
+
+
+class VesselCommandsView(generics.ListCreateAPIView):
+    """A vessel's commands, newest first; POST `{"kind": ..., "params": {...}}` queues one."""
+
+    serializer_class = CommandSerializer
+    queryset = Command.objects.none()  # for the model permission check
+
+    def get_queryset(self):  # noqa: ANN201 (DRF hook)
+        vessel = vessel_by_slug(self.kwargs["slug"])
+        return Command.objects.filter(vessel=vessel).prefetch_related("events")
+
+    @extend_schema(
+        request=CommandCreateSerializer, responses={201: CommandSerializer}, tags=["operator"]
+    )
+    def post(self, request: Request, *args: Any, **kwargs: Any) -> Response:
+        vessel = vessel_by_slug(self.kwargs["slug"])
+        incoming = CommandCreateSerializer(data=request.data)
+        incoming.is_valid(raise_exception=True)
+        try:
+            command = command_enqueue(
+                vessel=vessel,
+                kind=incoming.validated_data["kind"],
+                params=incoming.validated_data["params"],
+                source=Source.API,
+                created_by=request.user.get_username(),
+                expires_at=incoming.validated_data.get("expires_at"),
+            )
+        except CatalogError as exc:
+            key = exc.field if exc.field in {"kind"} else "params"
+            raise ValidationError({key: [exc.message]}) from None
+        except CommandError as exc:
+            raise ValidationError({"non_field_errors": [str(exc)]}) from None
+        return Response(CommandSerializer(command).data, status=status.HTTP_201_CREATED)
+
+
+class CommandCancelView(APIView):
+    queryset = Command.objects.none()
+    permission_classes = [ChangeModelPermissions]  # cancelling changes a command
+
+    @extend_schema(request=None, responses={200: CommandSerializer}, tags=["operator"])
+    def post(self, request: Request, uid: str) -> Response:
+        """Cancel a queued or sent command."""
+        try:
+            command = Command.objects.get(uid=uuid.UUID(uid))
+        except (ValueError, Command.DoesNotExist):
+            raise NotFound("No such command.") from None
+        try:
+            command_cancel(command=command, actor=request.user.get_username())
+        except TransitionError as exc:
+            raise Conflict(f"command is {exc.current}; it can no longer be cancelled") from None
+        return Response(CommandSerializer(command).data)

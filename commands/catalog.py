@@ -1,0 +1,410 @@
+"""The command catalog: every command kind, its parameters, ranges and text form (DESIGN §4).
+
+Pure Python: no ORM, no DRF. The admin form, the REST API and the SMS parser all validate
+through :func:`validate` and adapt :class:`CatalogError` into their own error type.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+MAVLINK = "mavlink"
+WAVE_GLIDER = "wave_glider"
+VESSEL_KINDS = (MAVLINK, WAVE_GLIDER)
+
+# ArduPilot Rover flight modes (ArduPilot Rover/mode.h, `enum Number`); INITIALISING is not
+# a mode an operator can ask for.
+ROVER_MODES: dict[str, int] = {
+    "MANUAL": 0,
+    "ACRO": 1,
+    "STEERING": 3,
+    "HOLD": 4,
+    "LOITER": 5,
+    "FOLLOW": 6,
+    "SIMPLE": 7,
+    "DOCK": 8,
+    "CIRCLE": 9,
+    "AUTO": 10,
+    "RTL": 11,
+    "SMART_RTL": 12,
+    "GUIDED": 15,
+}
+
+# Wave Glider waypoint table indices (thesis Table 3: "at the specified index (1-254)").
+WG_INDEX_MIN, WG_INDEX_MAX = 1, 254
+MISSION_MAX_ITEMS = 500
+
+
+class CatalogError(ValueError):
+    """A command a person asked for is not valid; the message says why, in words."""
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.field = field
+
+    def as_dict(self) -> dict[str, list[str]]:
+        return {self.field or "non_field_errors": [self.message]}
+
+
+def _is_number(value: Any) -> bool:
+    # bool is an int in Python; "true" is never a latitude.
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter: a name, a converter that validates and normalises, and its text help."""
+
+    name: str
+    kind: str  # "float", "int", "choice", "bool", "indices", "items"
+    help: str
+    minimum: float | None = None
+    maximum: float | None = None
+    choices: tuple[str, ...] = ()
+    required: bool = True
+    default: Any = None
+
+    def clean(self, value: Any) -> Any:
+        cleaner: Callable[[Any], Any] = getattr(self, f"_clean_{self.kind}")
+        return cleaner(value)
+
+    def _range(self, number: float) -> None:
+        if self.minimum is not None and number < self.minimum:
+            raise CatalogError(
+                f"{self.name} must be between {_fmt(self.minimum)} and {_fmt(self.maximum)}"
+                f" (got {_fmt(number)})",
+                field=self.name,
+            )
+        if self.maximum is not None and number > self.maximum:
+            raise CatalogError(
+                f"{self.name} must be between {_fmt(self.minimum)} and {_fmt(self.maximum)}"
+                f" (got {_fmt(number)})",
+                field=self.name,
+            )
+
+    def _clean_float(self, value: Any) -> float:
+        if not _is_number(value) or not math.isfinite(value):
+            raise CatalogError(f"{self.name} must be a number", field=self.name)
+        number = float(value)
+        self._range(number)
+        return number
+
+    def _clean_int(self, value: Any) -> int:
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise CatalogError(f"{self.name} must be a whole number", field=self.name)
+        self._range(value)
+        return value
+
+    def _clean_choice(self, value: Any) -> str:
+        text = value.strip().upper() if isinstance(value, str) else None
+        if text not in {c.upper() for c in self.choices}:
+            raise CatalogError(
+                f"{self.name} must be one of {', '.join(self.choices)}", field=self.name
+            )
+        return next(c for c in self.choices if c.upper() == text)
+
+    def _clean_bool(self, value: Any) -> bool:
+        if not isinstance(value, bool):
+            raise CatalogError(f"{self.name} must be true or false", field=self.name)
+        return value
+
+    def _clean_indices(self, value: Any) -> list[int]:
+        if not isinstance(value, list | tuple) or not value:
+            raise CatalogError(f"{self.name} must be a non-empty list of indices", field=self.name)
+        return [self._clean_int(v) for v in value]
+
+    def _clean_items(self, value: Any) -> list[dict[str, Any]]:
+        if not isinstance(value, list | tuple) or not value:
+            raise CatalogError(
+                f"{self.name} must be a non-empty list of waypoints", field=self.name
+            )
+        if len(value) > MISSION_MAX_ITEMS:
+            raise CatalogError(
+                f"{self.name} has {len(value)} waypoints; at most {MISSION_MAX_ITEMS}",
+                field=self.name,
+            )
+        return [_clean_mission_item(i, item) for i, item in enumerate(value)]
+
+
+def _fmt(number: float | None) -> str:
+    if number is None:
+        return "?"
+    return str(int(number)) if float(number).is_integer() else str(number)
+
+
+LAT = Param("lat", "float", "latitude, decimal degrees", minimum=-90, maximum=90)
+LON = Param("lon", "float", "longitude, decimal degrees", minimum=-180, maximum=180)
+HOLD_S = Param(
+    "hold_s", "float", "seconds to hold", minimum=0, maximum=86400, required=False, default=0.0
+)
+RADIUS_M = Param(
+    "radius_m",
+    "float",
+    "acceptance radius, metres",
+    minimum=0.5,
+    maximum=1000,
+    required=False,
+    default=None,
+)
+_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M)
+
+
+def _clean_mission_item(index: int, item: Any) -> dict[str, Any]:
+    if not isinstance(item, Mapping):
+        raise CatalogError(f"items[{index}] must be an object with lat and lon", field="items")
+    try:
+        return _clean_params(_ITEM_PARAMS, item)
+    except CatalogError as exc:
+        raise CatalogError(f"items[{index}]: {exc.message}", field="items") from None
+
+
+def _clean_params(specs: Sequence[Param], params: Mapping[str, Any]) -> dict[str, Any]:
+    known = {p.name for p in specs}
+    unknown = sorted(set(params) - known)
+    if unknown:
+        allowed = ", ".join(sorted(known)) or "none"
+        raise CatalogError(
+            f"unknown parameter {unknown[0]!r} (allowed: {allowed})", field=unknown[0]
+        )
+    clean: dict[str, Any] = {}
+    for spec in specs:
+        if spec.name not in params or params[spec.name] is None:
+            if spec.required:
+                raise CatalogError(f"{spec.name} is required ({spec.help})", field=spec.name)
+            clean[spec.name] = spec.default
+            continue
+        clean[spec.name] = spec.clean(params[spec.name])
+    return clean
+
+
+@dataclass(frozen=True)
+class CommandKind:
+    name: str
+    label: str
+    vessel_kinds: tuple[str, ...]
+    params: tuple[Param, ...] = ()
+    # Navigation commands replace each other: only the newest queued one may reach the boat.
+    navigation: bool = False
+    # The SMS word (without '#'); None when the kind has no text form.
+    sms_word: str | None = None
+
+    def param(self, name: str) -> Param:
+        return next(p for p in self.params if p.name == name)
+
+
+def _wg_index(name: str, help_: str) -> Param:
+    return Param(name, "int", help_, minimum=WG_INDEX_MIN, maximum=WG_INDEX_MAX)
+
+
+_ON_OFF = ("on", "off")
+
+KINDS: dict[str, CommandKind] = {
+    k.name: k
+    for k in (
+        CommandKind("move_to", "Move to a point", (MAVLINK,), (LAT, LON), navigation=True),
+        CommandKind(
+            "hold", "Hold position", (MAVLINK, WAVE_GLIDER), navigation=True, sms_word="HOLD"
+        ),
+        CommandKind("resume", "Resume mission (AUTO)", (MAVLINK,), navigation=True),
+        CommandKind("return_home", "Return home (RTL)", (MAVLINK,), navigation=True),
+        CommandKind(
+            "set_mode",
+            "Set autopilot mode",
+            (MAVLINK,),
+            (Param("mode", "choice", "ArduPilot Rover mode", choices=tuple(ROVER_MODES)),),
+            navigation=True,
+        ),
+        CommandKind("arm", "Arm motors", (MAVLINK,)),
+        CommandKind("disarm", "Disarm motors", (MAVLINK,)),
+        CommandKind(
+            "mission",
+            "Run a mission",
+            (MAVLINK,),
+            (
+                Param("mission_id", "int", "mission id on the server", minimum=1, required=False),
+                Param("items", "items", "waypoints [{lat, lon, hold_s, radius_m}]"),
+                Param("loop", "bool", "repeat the mission", required=False, default=False),
+            ),
+            navigation=True,
+        ),
+        CommandKind(
+            "fhead",
+            "Fixed heading",
+            (WAVE_GLIDER,),
+            (Param("bearing", "int", "degrees true, 0-359", minimum=0, maximum=359),),
+            navigation=True,
+            sms_word="FHEAD",
+        ),
+        CommandKind(
+            "light",
+            "Marker light",
+            (WAVE_GLIDER,),
+            (Param("state", "choice", "ON or OFF", choices=_ON_OFF),),
+            sms_word="LIGHT",
+        ),
+        CommandKind(
+            "ir",
+            "Infra-red marker light",
+            (WAVE_GLIDER,),
+            (Param("state", "choice", "ON or OFF", choices=_ON_OFF),),
+            sms_word="IR",
+        ),
+        CommandKind(
+            "waypoint",
+            "Set a waypoint",
+            (WAVE_GLIDER,),
+            (_wg_index("index", "waypoint index 1-254"), LAT, LON),
+            sms_word="WAYPOINT",
+        ),
+        CommandKind(
+            "holdwp",
+            "Hold at a waypoint",
+            (WAVE_GLIDER,),
+            (_wg_index("index", "waypoint index 1-254"),),
+            navigation=True,
+            sms_word="HOLDWP",
+        ),
+        CommandKind(
+            "fseq",
+            "Follow a waypoint sequence",
+            (WAVE_GLIDER,),
+            (
+                _wg_index("target", "waypoint to visit first"),
+                _wg_index("begin", "first waypoint of the loop"),
+                _wg_index("end", "last waypoint of the loop"),
+            ),
+            navigation=True,
+            sms_word="FSEQ",
+        ),
+        CommandKind(
+            "rudder",
+            "Rudder angle",
+            (WAVE_GLIDER,),
+            (Param("angle", "int", "degrees, -30 to 30", minimum=-30, maximum=30),),
+            navigation=True,
+            sms_word="RUDDER",
+        ),
+        CommandKind(
+            "fcourse",
+            "Follow a course",
+            (WAVE_GLIDER,),
+            (
+                Param("mode", "choice", "LOOP or HOLD at the end", choices=("LOOP", "HOLD")),
+                Param(
+                    "indices",
+                    "indices",
+                    "waypoint indices 1-254",
+                    minimum=WG_INDEX_MIN,
+                    maximum=WG_INDEX_MAX,
+                ),
+            ),
+            navigation=True,
+            sms_word="FCOURSE",
+        ),
+    )
+}
+
+SMS_WORDS: dict[str, CommandKind] = {k.sms_word: k for k in KINDS.values() if k.sms_word}
+
+
+@dataclass(frozen=True)
+class ValidCommand:
+    kind: str
+    params: dict[str, Any]
+    navigation: bool
+
+
+def get_kind(kind: str) -> CommandKind:
+    try:
+        return KINDS[kind]
+    except (KeyError, TypeError):
+        raise CatalogError(
+            f"unknown command kind {kind!r} (known: {', '.join(KINDS)})", field="kind"
+        ) from None
+
+
+def kinds_for(vessel_kind: str) -> list[CommandKind]:
+    return [k for k in KINDS.values() if vessel_kind in k.vessel_kinds]
+
+
+def validate(kind: str, params: Any, *, vessel_kind: str | None = None) -> ValidCommand:
+    """Validate a command for a vessel kind; return normalised params or raise CatalogError.
+
+    1. The kind must exist and (when given) suit the vessel kind.
+    2. ``params`` must be an object whose keys are all known parameters.
+    3. Each parameter is type-checked and range-checked, defaults filled in.
+    """
+    spec = get_kind(kind)
+    if vessel_kind is not None and vessel_kind not in spec.vessel_kinds:
+        raise CatalogError(
+            f"{kind} is not available for {vessel_kind} vessels "
+            f"(only {', '.join(spec.vessel_kinds)})",
+            field="kind",
+        )
+    if params is None:
+        params = {}
+    if not isinstance(params, Mapping):
+        raise CatalogError("params must be an object", field="params")
+    clean = _clean_params(spec.params, params)
+    return ValidCommand(kind=spec.name, params=clean, navigation=spec.navigation)
+
+
+def parse_text(text: str, *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:
+    """Parse the SMS text form (``#FHEAD 230``, ``#FCOURSE HOLD 3 4 1``) into a valid command.
+
+    Every token must be used: ``#FSEQ 1 1`` is refused rather than sent short (thesis Table 4).
+    """
+    tokens = text.strip().split()
+    if not tokens or not tokens[0].startswith("#"):
+        raise CatalogError("a command starts with # (for example #FHEAD 230)")
+    word, args = tokens[0][1:].upper(), tokens[1:]
+    spec = SMS_WORDS.get(word)
+    if spec is None:
+        raise CatalogError(f"unknown command #{word}", field="kind")
+    params: dict[str, Any] = {}
+    for param in spec.params:
+        if param.kind == "indices":
+            params[param.name] = [_token_number(param, a) for a in args]
+            args = []
+            break
+        if not args:
+            raise CatalogError(f"#{word} needs {param.name} ({param.help})", field=param.name)
+        token = args.pop(0)
+        params[param.name] = token if param.kind == "choice" else _token_number(param, token)
+    if args:
+        raise CatalogError(f"#{word} takes {len(spec.params)} value(s); extra: {' '.join(args)}")
+    return validate(spec.name, params, vessel_kind=vessel_kind)
+
+
+def _token_number(param: Param, token: str) -> int | float:
+    try:
+        return int(token) if param.kind in {"int", "indices"} else float(token)
+    except ValueError:
+        raise CatalogError(
+            f"{param.name} must be a number (got {token!r})", field=param.name
+        ) from None
+
+
+def to_text(kind: str, params: Mapping[str, Any]) -> str:
+    """The SMS text form of a valid command, e.g. ``#FSEQ 1 1 4``."""
+    spec = get_kind(kind)
+    if spec.sms_word is None:
+        raise CatalogError(f"{kind} has no text form", field="kind")
+    parts = [f"#{spec.sms_word}"]
+    for param in spec.params:
+        value = params[param.name]
+        if param.kind == "indices":
+            parts.extend(str(v) for v in value)
+        elif param.kind == "choice":
+            parts.append(str(value).upper())
+        elif param.kind == "float":
+            parts.append(f"{value:.4f}")
+        else:
+            parts.append(str(value))
+    return " ".join(parts)

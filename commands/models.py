@@ -1,0 +1,70 @@
+from __future__ import annotations
+
+import uuid
+
+from django.db import models
+from django.db.models import Q
+
+from commands.catalog import KINDS
+from commands.lifecycle import OPEN, Status
+from vessels.models import Vessel
+
+
+class Source(models.TextChoices):
+    ADMIN = "admin", "Admin"
+    API = "api", "API"
+    SMS = "sms", "SMS"
+    SYSTEM = "system", "System"
+
+
+class Command(models.Model):
+    uid = models.UUIDField(default=uuid.uuid4, unique=True, editable=False)
+    vessel = models.ForeignKey(Vessel, on_delete=models.CASCADE, related_name="commands")
+    kind = models.CharField(max_length=20, choices=[(k.name, k.label) for k in KINDS.values()])
+    params = models.JSONField(default=dict, blank=True)
+    status = models.CharField(
+        max_length=20, choices=[(s.value, s.value) for s in Status], default=Status.QUEUED
+    )
+    source = models.CharField(max_length=10, choices=Source.choices, default=Source.ADMIN)
+    created_by = models.CharField(max_length=150, blank=True)
+    created_at = models.DateTimeField(auto_now_add=True)
+    expires_at = models.DateTimeField(null=True, blank=True)
+    sent_at = models.DateTimeField(null=True, blank=True)
+    acknowledged_at = models.DateTimeField(null=True, blank=True)
+    finished_at = models.DateTimeField(null=True, blank=True)
+    result_detail = models.TextField(blank=True)
+
+    class Meta:
+        ordering = ["-created_at"]
+        indexes = [
+            # The boat poll (commands.selectors.open_commands) and supersede/expire scans.
+            models.Index(
+                fields=["vessel", "created_at"],
+                condition=Q(status__in=[s.value for s in OPEN]),
+                name="command_open_by_vessel",
+            ),
+        ]
+
+    def __str__(self) -> str:
+        return f"{self.kind} → {self.vessel_id} ({self.status})"
+
+    @property
+    def is_open(self) -> bool:
+        return self.status in OPEN
+
+
+class CommandEvent(models.Model):
+    """One status transition of a command: when, from what, to what, and why."""
+
+    command = models.ForeignKey(Command, on_delete=models.CASCADE, related_name="events")
+    at = models.DateTimeField()
+    from_status = models.CharField(max_length=20, blank=True)
+    to_status = models.CharField(max_length=20)
+    actor = models.CharField(max_length=150, blank=True)
+    detail = models.TextField(blank=True)
+
+    class Meta:
+        ordering = ["at", "pk"]
+
+    def __str__(self) -> str:
+        return f"{self.from_status or '∅'} → {self.to_status}"

@@ -1,0 +1,278 @@
+"""Command writes: enqueue, claim (deliver), ack, cancel, expire. Every transition is recorded."""
+
+from __future__ import annotations
+
+import datetime as dt
+import uuid
+from typing import Any
+
+from django.conf import settings
+from django.db import transaction
+from django.utils import timezone
+
+from commands import catalog
+from commands.lifecycle import OPEN, Status, TransitionError, ack_is_stale, check_transition
+from commands.models import Command, CommandEvent, Source
+from vessels.models import Vessel
+from vessels.services import vessel_bump_commands_version
+
+# Which timestamp field each status sets.
+_STAMP = {
+    Status.SENT: "sent_at",
+    Status.ACKNOWLEDGED: "acknowledged_at",
+    Status.DONE: "finished_at",
+    Status.FAILED: "finished_at",
+    Status.CANCELLED: "finished_at",
+    Status.SUPERSEDED: "finished_at",
+    Status.EXPIRED: "finished_at",
+}
+_LEAVES_BOAT_LIST = {
+    Status.ACKNOWLEDGED,
+    Status.DONE,
+    Status.FAILED,
+    Status.CANCELLED,
+    Status.SUPERSEDED,
+    Status.EXPIRED,
+}
+
+
+class CommandError(ValueError):
+    """A command request that cannot be carried out; the message says why."""
+
+
+class CommandNotFound(CommandError):
+    pass
+
+
+def _transition(
+    command: Command, target: Status, *, now: dt.datetime, actor: str = "", detail: str = ""
+) -> bool:
+    """Move ``command`` from its current status to ``target`` if nobody else moved it first.
+
+    The UPDATE is conditional on the status we read, so of two racing callers (two polls,
+    a poll and a cancel) exactly one wins, on SQLite and PostgreSQL alike; only the winner
+    records the transition.
+    """
+    current = Status(command.status)
+    check_transition(current, target)
+    changes: dict[str, Any] = {"status": target.value}
+    if stamp := _STAMP.get(target):
+        changes[stamp] = now
+    if detail and target in {
+        Status.DONE,
+        Status.FAILED,
+        Status.CANCELLED,
+        Status.EXPIRED,
+        Status.SUPERSEDED,
+    }:
+        changes["result_detail"] = detail
+    won = Command.objects.filter(pk=command.pk, status=current.value).update(**changes) == 1
+    if not won:
+        return False
+    for name, value in changes.items():
+        setattr(command, name, value)
+    CommandEvent.objects.create(
+        command=command,
+        at=now,
+        from_status=current.value,
+        to_status=target.value,
+        actor=actor,
+        detail=detail,
+    )
+    if target in _LEAVES_BOAT_LIST:
+        vessel_bump_commands_version(vessel_id=command.vessel_id)
+    return True
+
+
+@transaction.atomic
+def command_enqueue(
+    *,
+    vessel: Vessel,
+    kind: str,
+    params: Any,
+    source: str = Source.API,
+    created_by: str = "",
+    expires_at: dt.datetime | None = None,
+    now: dt.datetime | None = None,
+) -> Command:
+    """Validate through the catalog and queue a command; raises CatalogError or CommandError.
+
+    A new navigation command supersedes the vessel's older queued navigation commands: only
+    the newest navigation order may reach the boat.
+    """
+    now = now or timezone.now()
+    valid = catalog.validate(kind, params, vessel_kind=vessel.kind)
+    if not vessel.active:
+        raise CommandError(f"vessel {vessel.slug} is not active")
+    if expires_at is None:
+        expires_at = now + dt.timedelta(seconds=settings.COMMAND_DEFAULT_TTL_S)
+    elif expires_at <= now:
+        raise CommandError("expires_at must be in the future")
+    command = Command(
+        vessel=vessel,
+        kind=valid.kind,
+        params=valid.params,
+        source=source,
+        created_by=created_by[:150],
+        expires_at=expires_at,
+        status=Status.QUEUED,
+    )
+    command.full_clean()
+    command.save()
+    CommandEvent.objects.create(
+        command=command,
+        at=now,
+        to_status=Status.QUEUED,
+        actor=created_by[:150],
+        detail=f"via {source}",
+    )
+    if valid.navigation:
+        _supersede_older_navigation(command, now)
+    vessel_bump_commands_version(vessel_id=vessel.pk)
+    return command
+
+
+def _supersede_older_navigation(command: Command, now: dt.datetime) -> None:
+    nav_kinds = [k.name for k in catalog.KINDS.values() if k.navigation]
+    older = Command.objects.filter(
+        vessel_id=command.vessel_id,
+        status=Status.QUEUED,
+        kind__in=nav_kinds,
+    ).exclude(pk=command.pk)
+    for old in older:
+        _transition(
+            old,
+            Status.SUPERSEDED,
+            now=now,
+            actor="system",
+            detail=f"superseded by {command.kind} {command.uid}",
+        )
+
+
+def command_expire_due(*, now: dt.datetime | None = None, vessel: Vessel | None = None) -> int:
+    """Expire queued commands past their expires_at; return how many expired."""
+    now = now or timezone.now()
+    due = Command.objects.filter(status=Status.QUEUED, expires_at__lte=now)
+    if vessel is not None:
+        due = due.filter(vessel=vessel)
+    count = 0
+    for command in due:
+        with transaction.atomic():
+            count += _transition(
+                command,
+                Status.EXPIRED,
+                now=now,
+                actor="system",
+                detail="not delivered before expires_at",
+            )
+    return count
+
+
+def command_claim_open(
+    *,
+    vessel: Vessel,
+    kinds: list[str] | None = None,
+    now: dt.datetime | None = None,
+    actor: str = "boat",
+) -> list[Command]:
+    """The vessel's open commands, oldest first, marking the queued ones as sent.
+
+    Delivery is at-least-once: a sent command is offered again until the vessel acks it.
+    Two polls racing each see every command, but each queued→sent happens once (see
+    :func:`_transition`).
+    """
+    now = now or timezone.now()
+    command_expire_due(now=now, vessel=vessel)
+    open_commands = Command.objects.filter(vessel=vessel, status__in=[s.value for s in OPEN])
+    if kinds is not None:
+        open_commands = open_commands.filter(kind__in=kinds)
+    commands = list(open_commands.order_by("created_at", "pk"))
+    queued = [c for c in commands if c.status == Status.QUEUED]
+    if queued:
+        with transaction.atomic():
+            for command in queued:
+                if not _transition(command, Status.SENT, now=now, actor=actor):
+                    command.refresh_from_db(fields=["status", "sent_at"])
+    return commands
+
+
+def _get_for_vessel(vessel: Vessel, uid: Any) -> Command:
+    try:
+        return Command.objects.get(vessel=vessel, uid=uuid.UUID(str(uid)))
+    except (ValueError, Command.DoesNotExist):
+        # Another vessel's command is reported exactly like a missing one: a boat cannot
+        # learn that a uid exists elsewhere.
+        raise CommandNotFound(f"no command {uid} for this vessel") from None
+
+
+@transaction.atomic
+def command_ack(
+    *,
+    vessel: Vessel,
+    uid: Any,
+    status: str,
+    detail: str = "",
+    now: dt.datetime | None = None,
+) -> tuple[Command, bool]:
+    """Record the vessel's report on a command; return (command, changed).
+
+    Idempotent: a repeated or stale ack (acknowledged after done) changes nothing.
+    Raises CommandNotFound, or TransitionError for an illegal report (done after cancelled,
+    failed after done).
+    """
+    now = now or timezone.now()
+    try:
+        reported = Status(status)
+    except ValueError:
+        reported = None
+    if reported not in {Status.ACKNOWLEDGED, Status.DONE, Status.FAILED}:
+        raise CommandError("status must be acknowledged, done or failed")
+    command = _get_for_vessel(vessel, uid)
+    for _attempt in range(3):
+        current = Status(command.status)
+        if ack_is_stale(current, reported):
+            return command, False
+        check_transition(current, reported)  # raises TransitionError
+        if _transition(command, reported, now=now, actor="boat", detail=detail[:2000]):
+            return command, True
+        command.refresh_from_db()
+    raise TransitionError(Status(command.status), reported)
+
+
+@transaction.atomic
+def command_cancel(*, command: Command, actor: str, now: dt.datetime | None = None) -> Command:
+    """Cancel a queued or sent command. A sent one may already have reached the boat."""
+    now = now or timezone.now()
+    command.refresh_from_db()
+    detail = "cancelled by operator"
+    if command.status == Status.SENT:
+        detail += " (it may already have reached the vessel)"
+    if not _transition(command, Status.CANCELLED, now=now, actor=actor, detail=detail):
+        command.refresh_from_db()
+        raise TransitionError(Status(command.status), Status.CANCELLED)
+    return command
+
+
+LEGACY_KINDS = ["move_to", "hold"]
+LEGACY_DELIVERY_NOTE = "delivered to a legacy SPAB client; the old protocol has no ack"
+
+
+def command_deliver_legacy(*, vessel: Vessel, now: dt.datetime | None = None) -> list[Command]:
+    """Hand the open move_to/hold commands to a thesis-era client (GET requestCommands.cgi).
+
+    The old protocol has no acknowledgement, so delivery counts as one: otherwise the old
+    client would be handed (and would re-run) the same waypoint on every poll forever.
+    """
+    now = now or timezone.now()
+    commands = command_claim_open(vessel=vessel, kinds=LEGACY_KINDS, now=now, actor="legacy")
+    with transaction.atomic():
+        for command in commands:
+            if command.status == Status.SENT:
+                _transition(
+                    command,
+                    Status.ACKNOWLEDGED,
+                    now=now,
+                    actor="legacy",
+                    detail=LEGACY_DELIVERY_NOTE,
+                )
+    return commands

@@ -1,0 +1,232 @@
+"""Normalise one telemetry record into a FixData, or say what is wrong with it. Pure.
+
+Two wire shapes (DESIGN §5): the v1 boat API (`time`, `lat`, `lon`, optional `heading_deg`,
+`speed_mps`, `battery_v`, `readings`) and the thesis' legacy SPAB shape (`timestamp`, `latitude`,
+`longitude` and any other numeric keys as readings; thesis Listing 1).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+UTC = dt.UTC
+# No vessel of this fleet reported before the original SPAB system existed (thesis, 2018).
+PLAUSIBLE_FROM = dt.datetime(2018, 1, 1, tzinfo=UTC)
+# The old Shoreside server counted time in units of 10 µs since 2015-01-01 (DESIGN §5).
+LEGACY_EPOCH = dt.datetime(2015, 1, 1, tzinfo=UTC)
+LEGACY_TICKS_PER_S = 100_000
+MAX_READINGS = 64
+MAX_READING_NAME = 50
+
+V1_FIELDS = frozenset({"time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings"})
+
+
+@dataclass(frozen=True, slots=True)
+class FixData:
+    recorded_at: dt.datetime
+    lat: float
+    lon: float
+    heading_deg: float | None = None
+    speed_mps: float | None = None
+    battery_v: float | None = None
+    readings: dict[str, float] = field(default_factory=dict)
+
+
+class FixErrors(Exception):
+    """A record that cannot become a fix; ``errors`` maps field names to messages."""
+
+    def __init__(self, errors: dict[str, str]) -> None:
+        super().__init__("; ".join(f"{k}: {v}" for k, v in errors.items()))
+        self.errors = errors
+
+
+def _number(value: Any) -> float | None:
+    """A finite float, or None when ``value`` is not a JSON number (bools are not numbers)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    number = float(value)
+    return number if math.isfinite(number) else None
+
+
+def parse_time(value: Any, *, now: dt.datetime, max_future_s: float) -> dt.datetime:
+    """ISO 8601 with an offset, or Unix seconds; within [PLAUSIBLE_FROM, now + max_future_s]."""
+    if isinstance(value, str):
+        try:
+            when = dt.datetime.fromisoformat(value)
+        except ValueError:
+            raise ValueError("must be ISO 8601 (with offset) or Unix seconds") from None
+        if when.tzinfo is None:
+            raise ValueError("needs a UTC offset, e.g. 2026-11-23T10:00:00Z")
+    else:
+        seconds = _number(value)
+        if seconds is None:
+            raise ValueError("must be ISO 8601 (with offset) or Unix seconds")
+        try:
+            when = dt.datetime.fromtimestamp(seconds, UTC)
+        except (OverflowError, OSError, ValueError):
+            raise ValueError("is out of range") from None
+    _check_plausible(when, now=now, max_future_s=max_future_s)
+    return when.astimezone(UTC)
+
+
+def _check_plausible(when: dt.datetime, *, now: dt.datetime, max_future_s: float) -> None:
+    if when < PLAUSIBLE_FROM:
+        raise ValueError(f"is before {PLAUSIBLE_FROM:%Y-%m-%d}")
+    if (when - now).total_seconds() > max_future_s:
+        raise ValueError(f"is more than {int(max_future_s)} s in the future (check the clock)")
+
+
+def _optional(
+    record: dict[str, Any],
+    name: str,
+    lo: float,
+    hi: float,
+    errors: dict[str, str],
+    *,
+    hi_open: bool = False,
+) -> float | None:
+    value = record.get(name)
+    if value is None:
+        return None
+    number = _number(value)
+    if number is None:
+        errors[name] = "must be a number"
+        return None
+    if number < lo or number > hi or (hi_open and number == hi):
+        errors[name] = f"must be between {lo:g} and {hi:g}"
+        return None
+    return number
+
+
+def _position(
+    lat_raw: Any, lon_raw: Any, errors: dict[str, str], names: tuple[str, str] = ("lat", "lon")
+) -> tuple[float, float]:
+    lat, lon = _number(lat_raw), _number(lon_raw)
+    for name, raw, value, limit in (
+        (names[0], lat_raw, lat, 90.0),
+        (names[1], lon_raw, lon, 180.0),
+    ):
+        if raw is None:
+            errors[name] = "is required"
+        elif value is None:
+            errors[name] = "must be a number"
+        elif not -limit <= value <= limit:
+            errors[name] = f"must be between {-limit:g} and {limit:g}"
+    return lat or 0.0, lon or 0.0
+
+
+def _readings(raw: Any, errors: dict[str, str]) -> dict[str, float]:
+    if raw is None:
+        return {}
+    if not isinstance(raw, dict):
+        errors["readings"] = "must be an object of name: number"
+        return {}
+    if len(raw) > MAX_READINGS:
+        errors["readings"] = f"has more than {MAX_READINGS} values"
+        return {}
+    clean: dict[str, float] = {}
+    for name, value in raw.items():
+        number = _number(value)
+        if len(name) > MAX_READING_NAME or not name:
+            errors["readings"] = f"name {name[:20]!r} must be 1-{MAX_READING_NAME} characters"
+        elif number is None:
+            errors["readings"] = f"{name} must be a number"
+        else:
+            clean[name] = number
+    return clean
+
+
+def parse_fix(record: Any, *, now: dt.datetime, max_future_s: float = 300) -> FixData:
+    """Validate one v1 telemetry record; raise FixErrors naming every problem found."""
+    if not isinstance(record, dict):
+        raise FixErrors({"non_field_errors": "each fix must be a JSON object"})
+    errors: dict[str, str] = {}
+    unknown = sorted(set(record) - V1_FIELDS)
+    if unknown:
+        errors[unknown[0]] = f"unknown field (allowed: {', '.join(sorted(V1_FIELDS))})"
+    recorded_at = now
+    if "time" not in record:
+        errors["time"] = "is required"
+    else:
+        try:
+            recorded_at = parse_time(record["time"], now=now, max_future_s=max_future_s)
+        except ValueError as exc:
+            errors["time"] = str(exc)
+    lat, lon = _position(record.get("lat"), record.get("lon"), errors)
+    heading = _optional(record, "heading_deg", 0, 360, errors)
+    speed = _optional(record, "speed_mps", 0, 1000, errors)
+    battery = _optional(record, "battery_v", 0, 1000, errors)
+    readings = _readings(record.get("readings"), errors)
+    if errors:
+        raise FixErrors(errors)
+    return FixData(
+        recorded_at=recorded_at,
+        lat=lat,
+        lon=lon,
+        # 360 and 0 are the same bearing; the database keeps [0, 360).
+        heading_deg=None if heading is None else heading % 360,
+        speed_mps=speed,
+        battery_v=battery,
+        readings=readings,
+    )
+
+
+def legacy_time(raw: Any, *, now: dt.datetime, max_future_s: float) -> dt.datetime | None:
+    """Legacy `timestamp`: Unix seconds, else 10 µs ticks since 2015, else None (implausible)."""
+    value = _number(raw)
+    if value is None:
+        return None
+    for interpret in (_from_unix_seconds, _from_legacy_ticks):
+        try:
+            when = interpret(value)
+            _check_plausible(when, now=now, max_future_s=max_future_s)
+        except (OverflowError, OSError, ValueError):
+            continue
+        return when
+    return None
+
+
+def _from_unix_seconds(value: float) -> dt.datetime:
+    return dt.datetime.fromtimestamp(value, UTC)
+
+
+def _from_legacy_ticks(value: float) -> dt.datetime:
+    return LEGACY_EPOCH + dt.timedelta(seconds=value / LEGACY_TICKS_PER_S)
+
+
+def parse_legacy_fix(
+    record: Any, *, now: dt.datetime, index: int = 0, max_future_s: float = 300
+) -> FixData:
+    """Validate one thesis-style record (Listing 1).
+
+    A timestamp in neither known unit (e.g. the old client's milliseconds since boot) gets the
+    receive time, offset by ``index`` microseconds so fixes of one batch stay distinct, and the
+    raw value is kept as reading `timestamp_raw`.
+    """
+    if not isinstance(record, dict):
+        raise FixErrors({"non_field_errors": "each record must be a JSON object"})
+    errors: dict[str, str] = {}
+    lat, lon = _position(
+        record.get("latitude"), record.get("longitude"), errors, names=("latitude", "longitude")
+    )
+    readings: dict[str, float] = {}
+    for name, value in record.items():
+        if name in {"timestamp", "latitude", "longitude"}:
+            continue
+        number = _number(value)
+        if number is None:
+            errors[name] = "must be a number"
+        elif len(name) <= MAX_READING_NAME:
+            readings[name] = number
+    recorded_at = legacy_time(record.get("timestamp"), now=now, max_future_s=max_future_s)
+    if recorded_at is None:
+        recorded_at = now + dt.timedelta(microseconds=index)
+        raw = _number(record.get("timestamp"))
+        if raw is not None:
+            readings["timestamp_raw"] = raw
+    if errors:
+        raise FixErrors(errors)
+    return FixData(recorded_at=recorded_at, lat=lat, lon=lon, readings=readings)

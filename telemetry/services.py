@@ -1,0 +1,160 @@
+"""Telemetry writes: the ingest of fix batches (boat API v1 and the legacy SPAB endpoint)."""
+
+from __future__ import annotations
+
+import datetime as dt
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from django.conf import settings
+from django.db import connection, transaction
+from django.db.models import Q
+from django.utils import timezone
+
+from telemetry.models import Fix
+from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
+from vessels.models import Vessel
+
+# Rows per INSERT: 9 parameters each stays far below SQLite's 32,766-variable limit.
+INSERT_CHUNK = 1000
+
+
+@dataclass
+class IngestResult:
+    accepted: int = 0
+    duplicates: int = 0
+    rejected: list[dict[str, Any]] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"accepted": self.accepted, "duplicates": self.duplicates, "rejected": self.rejected}
+
+
+def fix_ingest(
+    *,
+    vessel: Vessel,
+    records: Sequence[Any],
+    legacy: bool = False,
+    now: dt.datetime | None = None,
+) -> IngestResult:
+    """Store a batch of telemetry records for ``vessel``.
+
+    1. Each record is validated on its own; a bad one is reported by index and never costs
+       the good ones of the batch.
+    2. Records repeating a time already in this batch count as duplicates (first one wins).
+    3. The rest go in with INSERT … ON CONFLICT DO NOTHING RETURNING, so a fix already stored
+       (a store-and-forward retry) is a counted duplicate, exactly, even when two requests race.
+    4. The vessel's last fix moves forward only if this batch holds a newer fix.
+    """
+    now = now or timezone.now()
+    result = IngestResult()
+    parse: Callable[..., FixData] = parse_legacy_fix if legacy else parse_fix
+    fixes: dict[dt.datetime, FixData] = {}
+    for index, record in enumerate(records):
+        try:
+            fix = (
+                parse(record, now=now, index=index, max_future_s=settings.FIX_MAX_FUTURE_S)
+                if legacy
+                else parse(record, now=now, max_future_s=settings.FIX_MAX_FUTURE_S)
+            )
+        except FixErrors as exc:
+            result.rejected.append({"index": index, "errors": exc.errors})
+            continue
+        if fix.recorded_at in fixes:
+            result.duplicates += 1
+        else:
+            fixes[fix.recorded_at] = fix
+    with transaction.atomic():
+        inserted = _insert_new(vessel.pk, list(fixes.values()), now)
+        result.accepted = len(inserted)
+        result.duplicates += len(fixes) - len(inserted)
+        _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
+    return result
+
+
+def _insert_new(vessel_id: int, fixes: list[FixData], now: dt.datetime) -> list[dt.datetime]:
+    """Insert ``fixes``; return the recorded_at of those that were new."""
+    if not fixes:
+        return []
+    meta = Fix._meta
+    cols = [
+        "vessel_id",
+        "recorded_at",
+        "received_at",
+        "lat",
+        "lon",
+        "heading_deg",
+        "speed_mps",
+        "battery_v",
+        "readings",
+    ]
+    prep_time = meta.get_field("recorded_at").get_db_prep_save
+    prep_json = meta.get_field("readings").get_db_prep_save
+    qn = connection.ops.quote_name
+    received = prep_time(now, connection)
+    inserted: list[dt.datetime] = []
+    by_db_time: dict[Any, dt.datetime] = {}
+    for start in range(0, len(fixes), INSERT_CHUNK):
+        chunk = fixes[start : start + INSERT_CHUNK]
+        params: list[Any] = []
+        for fix in chunk:
+            db_time = prep_time(fix.recorded_at, connection)
+            by_db_time[_key(db_time)] = fix.recorded_at
+            params += [
+                vessel_id,
+                db_time,
+                received,
+                fix.lat,
+                fix.lon,
+                fix.heading_deg,
+                fix.speed_mps,
+                fix.battery_v,
+                prep_json(fix.readings, connection),
+            ]
+        row = "(" + ", ".join(["%s"] * len(cols)) + ")"
+        sql = (
+            f"INSERT INTO {qn(meta.db_table)} ({', '.join(qn(c) for c in cols)}) "
+            f"VALUES {', '.join([row] * len(chunk))} "
+            f"ON CONFLICT ({qn('vessel_id')}, {qn('recorded_at')}) DO NOTHING "
+            f"RETURNING {qn('recorded_at')}"
+        )
+        with connection.cursor() as cursor:
+            cursor.execute(sql, params)
+            returned = [r[0] for r in cursor.fetchall()]
+        inserted += [by_db_time[_key(value)] for value in returned]
+    return inserted
+
+
+def _key(value: Any) -> dt.datetime:
+    """Naive UTC: SQLite returns the stored text, PostgreSQL an aware datetime."""
+    if isinstance(value, dt.datetime):
+        return value.astimezone(dt.UTC).replace(tzinfo=None)
+    text = str(value)
+    return dt.datetime.fromisoformat(text).replace(tzinfo=None)
+
+
+def _advance_last_fix(vessel: Vessel, new: list[FixData], now: dt.datetime) -> None:
+    if new:
+        newest = max(new, key=lambda f: f.recorded_at)
+        moved = Vessel.objects.filter(
+            Q(last_fix_at__isnull=True) | Q(last_fix_at__lt=newest.recorded_at), pk=vessel.pk
+        ).update(last_fix=fix_summary(newest), last_fix_at=newest.recorded_at, last_seen_at=now)
+        if moved:
+            return
+    Vessel.objects.filter(pk=vessel.pk).update(last_seen_at=now)
+
+
+def fix_summary(fix: FixData) -> dict[str, Any]:
+    """The denormalised copy of a fix kept on Vessel.last_fix."""
+    summary: dict[str, Any] = {
+        "time": fix.recorded_at.isoformat(),
+        "lat": fix.lat,
+        "lon": fix.lon,
+    }
+    for name in ("heading_deg", "speed_mps", "battery_v"):
+        value = getattr(fix, name)
+        if value is not None:
+            summary[name] = value
+    if fix.readings:
+        summary["readings"] = fix.readings
+    return summary

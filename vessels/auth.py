@@ -1,0 +1,101 @@
+"""Boat authentication: one vessel key per request, in DRF's own terms (STYLE §14)."""
+
+from __future__ import annotations
+
+import base64
+import binascii
+
+from django.http import HttpRequest
+from django.utils import timezone
+from rest_framework.authentication import BaseAuthentication
+from rest_framework.exceptions import AuthenticationFailed
+from rest_framework.request import Request
+
+from vessels.keys import hash_key
+from vessels.models import Vessel, VesselKey
+from vessels.services import vessel_key_touch
+
+SCHEME = "Api-Key"
+
+
+class BoatPrincipal:
+    """The `request.user` of a boat request: authenticated as a vessel, never as an operator."""
+
+    is_authenticated = True
+    is_active = True
+    is_staff = False
+    is_superuser = False
+    is_anonymous = False
+
+    def __init__(self, vessel: Vessel) -> None:
+        self.vessel = vessel
+
+    def __str__(self) -> str:
+        return f"vessel:{self.vessel.slug}"
+
+    def has_perm(self, perm: str, obj: object = None) -> bool:
+        return False
+
+
+def key_lookup(raw_key: str) -> VesselKey:
+    """The active key matching ``raw_key``, with its vessel; raises AuthenticationFailed."""
+    if not raw_key or len(raw_key) > 200:
+        raise AuthenticationFailed("Invalid vessel key.")
+    try:
+        key = VesselKey.objects.select_related("vessel").get(key_hash=hash_key(raw_key))
+    except VesselKey.DoesNotExist:
+        raise AuthenticationFailed("Invalid vessel key.") from None
+    if key.revoked_at is not None:
+        raise AuthenticationFailed("This vessel key has been revoked.")
+    if not key.vessel.active:
+        raise AuthenticationFailed("This vessel is not active.")
+    vessel_key_touch(key=key, now=timezone.now())
+    return key
+
+
+class VesselKeyAuthentication(BaseAuthentication):
+    """`Authorization: Api-Key <key>` → (BoatPrincipal, VesselKey)."""
+
+    def authenticate(self, request: Request) -> tuple[BoatPrincipal, VesselKey] | None:
+        header = request.META.get("HTTP_AUTHORIZATION", "")
+        scheme, _, raw = header.partition(" ")
+        if scheme.lower() != SCHEME.lower():
+            return None
+        key = key_lookup(raw.strip())
+        return BoatPrincipal(key.vessel), key
+
+    def authenticate_header(self, request: Request) -> str:
+        return SCHEME
+
+
+class LegacyKeyAuthentication(VesselKeyAuthentication):
+    """The legacy SPAB endpoints also take HTTP Basic (user = slug, password = key), an
+    `Api-Key` header, or `?key=` (the F2414 modem could not do Basic auth; thesis §6.2)."""
+
+    def authenticate(self, request: Request) -> tuple[BoatPrincipal, VesselKey] | None:
+        found = super().authenticate(request)
+        if found is not None:
+            return found
+        slug, raw = _from_basic(request._request)
+        raw = raw or request._request.META.get("HTTP_API_KEY") or request.query_params.get("key")
+        if not raw:
+            return None
+        key = key_lookup(raw)
+        if slug and slug != key.vessel.slug:
+            raise AuthenticationFailed("The key does not belong to that vessel.")
+        return BoatPrincipal(key.vessel), key
+
+    def authenticate_header(self, request: Request) -> str:
+        return 'Basic realm="shoreside"'
+
+
+def _from_basic(request: HttpRequest) -> tuple[str, str]:
+    """(slug, key) from HTTP Basic credentials, or ("", "") when there are none."""
+    scheme, _, encoded = request.META.get("HTTP_AUTHORIZATION", "").partition(" ")
+    if scheme.lower() != "basic":
+        return "", ""
+    try:
+        slug, _, password = base64.b64decode(encoded, validate=True).decode().partition(":")
+    except (binascii.Error, UnicodeDecodeError):
+        raise AuthenticationFailed("Malformed Basic credentials.") from None
+    return slug, password

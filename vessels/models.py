@@ -1,0 +1,142 @@
+from __future__ import annotations
+
+import datetime as dt
+from typing import Any
+
+from django.core.validators import MaxValueValidator, MinValueValidator
+from django.db import models
+from django.db.models import Q
+
+from commands.catalog import MAVLINK, WAVE_GLIDER
+
+# A vessel silent for this many telemetry periods is overdue (DESIGN §3).
+OVERDUE_PERIODS = 3
+
+
+class VesselKind(models.TextChoices):
+    MAVLINK = MAVLINK, "ArduPilot (MAVLink)"
+    WAVE_GLIDER = WAVE_GLIDER, "Wave Glider"
+
+
+class Vessel(models.Model):
+    name = models.CharField(max_length=100)
+    slug = models.SlugField(max_length=50, unique=True, help_text="Stable id used in URLs.")
+    kind = models.CharField(max_length=20, choices=VesselKind.choices, default=VesselKind.MAVLINK)
+    active = models.BooleanField(default=True)
+    notes = models.TextField(blank=True)
+    telemetry_period_s = models.PositiveIntegerField(
+        default=60,
+        validators=[MinValueValidator(1), MaxValueValidator(7 * 86400)],
+        help_text="Expected seconds between reports.",
+    )
+    # Denormalised newest fix for the fleet list and map: {time, lat, lon, heading_deg, ...}.
+    last_fix = models.JSONField(null=True, blank=True, editable=False)
+    last_fix_at = models.DateTimeField(null=True, blank=True, editable=False)
+    last_seen_at = models.DateTimeField(null=True, blank=True, editable=False)
+    # Bumped whenever the set of open commands for this vessel changes; the boat poll's ETag.
+    commands_version = models.PositiveBigIntegerField(default=0, editable=False)
+    created_at = models.DateTimeField(auto_now_add=True)
+
+    class Meta:
+        ordering = ["name"]
+
+    def __str__(self) -> str:
+        return self.name
+
+    def status(self, now: dt.datetime) -> str:
+        """`never seen`, `reporting` or `overdue` (silent for OVERDUE_PERIODS periods)."""
+        if self.last_seen_at is None:
+            return "never seen"
+        if self.is_overdue(now):
+            return "overdue"
+        return "reporting"
+
+    def is_overdue(self, now: dt.datetime) -> bool:
+        if self.last_seen_at is None:
+            return False
+        limit = dt.timedelta(seconds=self.telemetry_period_s * OVERDUE_PERIODS)
+        return now - self.last_seen_at > limit
+
+    @property
+    def battery_v(self) -> float | None:
+        fix: dict[str, Any] = self.last_fix or {}
+        return fix.get("battery_v")
+
+
+class VesselKey(models.Model):
+    vessel = models.ForeignKey(Vessel, on_delete=models.CASCADE, related_name="keys")
+    label = models.CharField(max_length=100, blank=True)
+    # First characters of the key, to tell keys apart in the admin without revealing them.
+    prefix = models.CharField(max_length=12, editable=False)
+    # SHA-256 of the key. Keys are 256-bit random, so a fast hash is safe and keeps auth cheap.
+    key_hash = models.CharField(max_length=64, unique=True, editable=False)
+    created_at = models.DateTimeField(auto_now_add=True)
+    created_by = models.CharField(max_length=150, blank=True)
+    revoked_at = models.DateTimeField(null=True, blank=True, editable=False)
+    last_used_at = models.DateTimeField(null=True, blank=True, editable=False)
+
+    class Meta:
+        ordering = ["-created_at"]
+        verbose_name = "vessel key"
+
+    def __str__(self) -> str:
+        return f"{self.prefix}… ({self.vessel.slug})"
+
+    @property
+    def is_active(self) -> bool:
+        return self.revoked_at is None
+
+
+class Mission(models.Model):
+    name = models.CharField(max_length=100)
+    vessel = models.ForeignKey(
+        Vessel,
+        on_delete=models.CASCADE,
+        null=True,
+        blank=True,
+        related_name="missions",
+        help_text="Leave empty for a template any vessel can run.",
+    )
+    loop = models.BooleanField(default=False)
+    notes = models.TextField(blank=True)
+    created_at = models.DateTimeField(auto_now_add=True)
+    updated_at = models.DateTimeField(auto_now=True)
+
+    class Meta:
+        ordering = ["name"]
+
+    def __str__(self) -> str:
+        return self.name
+
+    def as_params(self) -> dict[str, Any]:
+        """The `mission` command params for this mission (validated by the catalog on enqueue)."""
+        return {
+            "mission_id": self.pk,
+            "loop": self.loop,
+            "items": [
+                {"lat": i.lat, "lon": i.lon, "hold_s": i.hold_s, "radius_m": i.radius_m}
+                for i in self.items.all()
+            ],
+        }
+
+
+class MissionItem(models.Model):
+    mission = models.ForeignKey(Mission, on_delete=models.CASCADE, related_name="items")
+    seq = models.PositiveIntegerField()
+    lat = models.FloatField(validators=[MinValueValidator(-90), MaxValueValidator(90)])
+    lon = models.FloatField(validators=[MinValueValidator(-180), MaxValueValidator(180)])
+    hold_s = models.FloatField(default=0, validators=[MinValueValidator(0)])
+    radius_m = models.FloatField(null=True, blank=True, validators=[MinValueValidator(0.5)])
+
+    class Meta:
+        ordering = ["mission", "seq"]
+        constraints = [
+            models.UniqueConstraint(fields=["mission", "seq"], name="missionitem_unique_seq"),
+            models.CheckConstraint(
+                condition=Q(lat__gte=-90, lat__lte=90, lon__gte=-180, lon__lte=180),
+                name="missionitem_latlon_range",
+            ),
+        ]
+
+    def __str__(self) -> str:
+        return f"{self.seq}: {self.lat:.5f}, {self.lon:.5f}"

@@ -1,0 +1,89 @@
+"""Writes for vessels, keys and missions. Admin, API and management commands all come here."""
+
+from __future__ import annotations
+
+import datetime as dt
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from django.conf import settings
+from django.db import transaction
+from django.db.models import F
+from django.utils import timezone
+
+from vessels.keys import PREFIX_SHOWN, generate_key, hash_key
+from vessels.models import Mission, MissionItem, Vessel, VesselKey
+
+
+def vessel_create(
+    *, slug: str, name: str, kind: str = "mavlink", telemetry_period_s: int = 60, notes: str = ""
+) -> Vessel:
+    vessel = Vessel(
+        slug=slug, name=name, kind=kind, telemetry_period_s=telemetry_period_s, notes=notes
+    )
+    vessel.full_clean()
+    vessel.save()
+    return vessel
+
+
+def vessel_key_issue(
+    *, vessel: Vessel, label: str = "", created_by: str = ""
+) -> tuple[VesselKey, str]:
+    """Create a key for ``vessel``; return it and the raw key, which is never stored or shown."""
+    raw = generate_key()
+    key = VesselKey(
+        vessel=vessel,
+        label=label,
+        created_by=created_by,
+        prefix=raw[:PREFIX_SHOWN],
+        key_hash=hash_key(raw),
+    )
+    key.full_clean()
+    key.save()
+    return key, raw
+
+
+def vessel_key_revoke(*, key: VesselKey, now: dt.datetime | None = None) -> VesselKey:
+    """Revoke a key at once (idempotent: a revoked key keeps its first revocation time)."""
+    VesselKey.objects.filter(pk=key.pk, revoked_at__isnull=True).update(
+        revoked_at=now or timezone.now()
+    )
+    key.refresh_from_db()
+    return key
+
+
+def vessel_key_touch(*, key: VesselKey, now: dt.datetime) -> None:
+    """Record key use, at most once per KEY_TOUCH_INTERVAL_S.
+
+    Writing on every poll would make every poll a write and serialise them behind SQLite's
+    single writer; a minute's resolution is all an operator needs to see a key is in use.
+    """
+    last = key.last_used_at
+    if last is not None and (now - last).total_seconds() < settings.KEY_TOUCH_INTERVAL_S:
+        return
+    VesselKey.objects.filter(pk=key.pk).update(last_used_at=now)
+    Vessel.objects.filter(pk=key.vessel_id).update(last_seen_at=now)
+    key.last_used_at = now
+
+
+def vessel_bump_commands_version(*, vessel_id: int) -> None:
+    """Change the boat poll's ETag: the set of open commands for this vessel changed."""
+    Vessel.objects.filter(pk=vessel_id).update(commands_version=F("commands_version") + 1)
+
+
+@transaction.atomic
+def mission_save_items(*, mission: Mission, items: Iterable[Mapping[str, Any]]) -> Mission:
+    """Replace a mission's items with ``items`` (dicts of lat, lon, hold_s, radius_m), in order."""
+    mission.items.all().delete()
+    for seq, item in enumerate(items, start=1):
+        row = MissionItem(
+            mission=mission,
+            seq=seq,
+            lat=item["lat"],
+            lon=item["lon"],
+            hold_s=item.get("hold_s") or 0,
+            radius_m=item.get("radius_m"),
+        )
+        row.full_clean()
+        row.save()
+    return mission
