@@ -55,6 +55,14 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
 
+def _is_finite(value: int | float) -> bool:
+    # JSON integers have no size limit; one past float's range is no coordinate either.
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 @dataclass(frozen=True)
 class Param:
     """One parameter: a name, a converter that validates and normalises, and its text help."""
@@ -87,7 +95,7 @@ class Param:
             )
 
     def _clean_float(self, value: Any) -> float:
-        if not _is_number(value) or not math.isfinite(value):
+        if not _is_number(value) or not _is_finite(value):
             raise CatalogError(f"{self.name} must be a number", field=self.name)
         number = float(value)
         self._range(number)
@@ -135,6 +143,10 @@ class Param:
 def _fmt(number: float | None) -> str:
     if number is None:
         return "?"
+    if not _is_finite(number):
+        return "a number out of range"  # a huge JSON integer: float() would overflow
+    if abs(number) >= 1e15:
+        return f"{float(number):g}"  # 1e+300, not three hundred digits
     return str(int(number)) if float(number).is_integer() else str(number)
 
 

@@ -47,7 +47,10 @@ def _number(value: Any) -> float | None:
     """A finite float, or None when ``value`` is not a JSON number (bools are not numbers)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         return None
-    number = float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # JSON integers have no size limit; 10**400 is no coordinate
+        return None
     return number if math.isfinite(number) else None
 
 
