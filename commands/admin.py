@@ -1,0 +1,141 @@
+"""Command admin: queue through the catalog-validated form, cancel, read the transition log."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from django.contrib import admin, messages
+from django.db.models import QuerySet
+from django.http import HttpRequest
+
+from commands.forms import CommandForm
+from commands.lifecycle import OPEN, TransitionError
+from commands.models import Command, CommandEvent, Source
+from commands.services import command_cancel, command_enqueue
+
+
+class CommandEventInline(admin.TabularInline):
+    model = CommandEvent
+    extra = 0
+    can_delete = False
+    fields = ["at", "from_status", "to_status", "actor", "detail"]
+    readonly_fields = fields
+
+    def has_add_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        return False
+
+    def has_change_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        return False
+
+
+@admin.register(Command)
+class CommandAdmin(admin.ModelAdmin):
+    form = CommandForm
+    list_display = [
+        "created_at",
+        "vessel",
+        "kind",
+        "params_summary",
+        "status",
+        "source",
+        "created_by",
+    ]
+    list_filter = ["status", "kind", "source", "vessel"]
+    list_select_related = ["vessel"]
+    search_fields = ["=uid", "created_by", "vessel__slug"]
+    actions = ["cancel"]
+    readonly_fields = [
+        "uid",
+        "vessel",
+        "kind",
+        "params_pretty",
+        "status",
+        "source",
+        "created_by",
+        "created_at",
+        "expires_at",
+        "sent_at",
+        "acknowledged_at",
+        "finished_at",
+        "result_detail",
+    ]
+
+    class Media:
+        js = ["commands/command_form.js"]
+
+    def get_inlines(self, request: HttpRequest, obj: Command | None) -> list[Any]:
+        return [CommandEventInline] if obj else []
+
+    def get_fields(self, request: HttpRequest, obj: Command | None = None) -> Any:
+        if obj is not None:
+            return self.readonly_fields
+        form = CommandForm()
+        return [
+            "vessel",
+            "kind",
+            *[n for names in form.param_fields.values() for n in names],
+            "mission",
+            "expires_at",
+        ]
+
+    def get_readonly_fields(self, request: HttpRequest, obj: Command | None = None) -> Any:
+        return self.readonly_fields if obj else []
+
+    def get_form(
+        self, request: HttpRequest, obj: Any = None, change: bool = False, **kwargs: Any
+    ) -> Any:
+        if obj is not None:
+            kwargs["form"] = admin.ModelAdmin.form
+            kwargs["fields"] = []
+        else:
+            # The parameter fields are added by CommandForm.__init__ from the catalog; the
+            # model form factory must only be given real model fields.
+            kwargs["fields"] = CommandForm.Meta.fields
+        return super().get_form(request, obj, change, **kwargs)
+
+    def has_change_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        # Commands are never edited; only queued (add) or cancelled (action).
+        return obj is None and super().has_change_permission(request, obj)
+
+    def save_model(self, request: HttpRequest, obj: Command, form: Any, change: bool) -> None:
+        created = command_enqueue(
+            vessel=form.cleaned_data["vessel"],
+            kind=form.cleaned_data["kind"],
+            params=form.cleaned_data["params"],
+            source=Source.ADMIN,
+            created_by=request.user.get_username(),
+            expires_at=form.cleaned_data.get("expires_at"),
+        )
+        for field in Command._meta.concrete_fields:
+            setattr(obj, field.attname, getattr(created, field.attname))
+
+    @admin.display(description="params")
+    def params_summary(self, command: Command) -> str:
+        text = ", ".join(f"{k}={v}" for k, v in command.params.items() if k != "items")
+        if "items" in command.params:
+            text = f"{len(command.params['items'])} waypoints" + (f", {text}" if text else "")
+        return text[:80]
+
+    @admin.display(description="params")
+    def params_pretty(self, command: Command) -> str:
+        return json.dumps(command.params, indent=1)
+
+    @admin.action(description="Cancel selected commands", permissions=["cancel"])
+    def cancel(self, request: HttpRequest, queryset: QuerySet[Command]) -> None:
+        done = 0
+        for command in queryset.filter(status__in=[s.value for s in OPEN]):
+            try:
+                command_cancel(command=command, actor=request.user.get_username())
+                done += 1
+            except TransitionError as exc:
+                messages.warning(request, f"{command.uid}: {exc}")
+        skipped = queryset.count() - done
+        messages.success(
+            request,
+            f"Cancelled {done} command(s)"
+            + (f"; {skipped} were no longer open." if skipped else "."),
+        )
+
+    def has_cancel_permission(self, request: HttpRequest) -> bool:
+        return request.user.has_perm("commands.change_command")

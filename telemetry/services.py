@@ -12,7 +12,7 @@ from django.db import connection, transaction
 from django.db.models import Q
 from django.utils import timezone
 
-from telemetry.models import Fix
+from telemetry.models import Fix, SensorChannel
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.models import Vessel
 
@@ -158,3 +158,9 @@ def fix_summary(fix: FixData) -> dict[str, Any]:
     if fix.readings:
         summary["readings"] = fix.readings
     return summary
+
+
+def sensor_channel_save(*, channel: SensorChannel) -> SensorChannel:
+    channel.full_clean()
+    channel.save()
+    return channel

@@ -87,3 +87,16 @@ def mission_save_items(*, mission: Mission, items: Iterable[Mapping[str, Any]]) 
         row.full_clean()
         row.save()
     return mission
+
+
+def vessel_save(*, vessel: Vessel) -> Vessel:
+    """Create or update a vessel from an edited instance (admin form)."""
+    vessel.full_clean()
+    vessel.save()
+    return vessel
+
+
+def mission_save(*, mission: Mission) -> Mission:
+    mission.full_clean()
+    mission.save()
+    return mission

@@ -1,0 +1,138 @@
+"""Personas for every test (STYLE §16): operators with and without rights, a stranger,
+boat A and boat B with their own keys, and a revoked key."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+from django.contrib.auth.models import Permission, User
+from rest_framework.test import APIClient
+
+from vessels.models import Vessel
+from vessels.services import vessel_create, vessel_key_issue, vessel_key_revoke
+
+OPERATOR_PERMS = [
+    "vessels.view_vessel",
+    "telemetry.view_fix",
+    "commands.view_command",
+    "commands.add_command",
+    "commands.change_command",
+]
+
+
+@pytest.fixture(autouse=True)
+def _allowed_hosts(settings: Any) -> None:
+    settings.ALLOWED_HOSTS = ["testserver", "localhost", "127.0.0.1"]
+
+
+@pytest.fixture
+def vessel_a(db: None) -> Vessel:
+    return vessel_create(slug="spab", name="SPAB", kind="mavlink", telemetry_period_s=10)
+
+
+@pytest.fixture
+def vessel_b(db: None) -> Vessel:
+    return vessel_create(slug="spab-2", name="SPAB 2", kind="mavlink")
+
+
+@pytest.fixture
+def glider(db: None) -> Vessel:
+    return vessel_create(slug="glider", name="Wave Glider", kind="wave_glider")
+
+
+@pytest.fixture
+def key_a(vessel_a: Vessel) -> str:
+    return vessel_key_issue(vessel=vessel_a, label="boat A")[1]
+
+
+@pytest.fixture
+def key_b(vessel_b: Vessel) -> str:
+    return vessel_key_issue(vessel=vessel_b, label="boat B")[1]
+
+
+@pytest.fixture
+def revoked_key_a(vessel_a: Vessel) -> str:
+    key, raw = vessel_key_issue(vessel=vessel_a, label="old")
+    vessel_key_revoke(key=key)
+    return raw
+
+
+def boat_client(raw_key: str) -> APIClient:
+    client = APIClient()
+    client.credentials(HTTP_AUTHORIZATION=f"Api-Key {raw_key}")
+    return client
+
+
+@pytest.fixture
+def boat_a(key_a: str) -> APIClient:
+    return boat_client(key_a)
+
+
+@pytest.fixture
+def boat_b(key_b: str) -> APIClient:
+    return boat_client(key_b)
+
+
+@pytest.fixture
+def revoked_boat(revoked_key_a: str) -> APIClient:
+    return boat_client(revoked_key_a)
+
+
+@pytest.fixture
+def anonymous() -> APIClient:
+    return APIClient()
+
+
+def _user(username: str, perms: list[str], *, staff: bool = True) -> User:
+    user = User.objects.create_user(username, f"{username}@example.org", "pw-" + username,
+                                    is_staff=staff)
+    for perm in perms:
+        app_label, codename = perm.split(".")
+        user.user_permissions.add(
+            Permission.objects.get(content_type__app_label=app_label, codename=codename)
+        )
+    return user
+
+
+@pytest.fixture
+def operator_user(db: None) -> User:
+    """Alice: an operator with the rights to read the fleet and command it."""
+    return _user("alice", OPERATOR_PERMS)
+
+
+@pytest.fixture
+def readonly_user(db: None) -> User:
+    """Bob: logged in, staff, but without any model permission."""
+    return _user("bob", [])
+
+
+@pytest.fixture
+def operator(operator_user: User) -> APIClient:
+    client = APIClient()
+    client.force_authenticate(operator_user)
+    return client
+
+
+@pytest.fixture
+def readonly(readonly_user: User) -> APIClient:
+    client = APIClient()
+    client.force_authenticate(readonly_user)
+    return client
+
+
+@pytest.fixture
+def make_fix() -> Callable[..., dict[str, Any]]:
+    """A valid v1 fix record, with any field overridden."""
+
+    def make(**overrides: Any) -> dict[str, Any]:
+        record: dict[str, Any] = {
+            "time": "2026-11-23T10:00:00Z", "lat": -31.9505, "lon": 115.8605,
+            "heading_deg": 90.0, "speed_mps": 1.2, "battery_v": 12.6,
+            "readings": {"water_temp_c": 19.5},
+        }
+        record.update(overrides)
+        return {k: v for k, v in record.items() if v is not ...}
+
+    return make

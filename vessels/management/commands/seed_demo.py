@@ -1,0 +1,149 @@
+"""Create a demo fleet: an operator account, vessels with keys, sensor channels, some history."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import secrets
+from pathlib import Path
+from typing import Any
+
+from django.conf import settings
+from django.contrib.auth.models import Group, Permission, User
+from django.core.management.base import BaseCommand, CommandParser
+from django.db import transaction
+from django.utils import timezone
+
+from commands.models import Source
+from commands.services import command_ack, command_claim_open, command_enqueue
+from telemetry.models import SensorChannel
+from telemetry.services import fix_ingest, sensor_channel_save
+from vessels.models import Mission, Vessel
+from vessels.services import mission_save, mission_save_items, vessel_create, vessel_key_issue
+from vessels.simulation import SimBoat, patrol_route
+
+OPERATOR_GROUP = "Operators"
+OPERATOR_PERMS = {
+    "vessels": [
+        "view_vessel",
+        "change_vessel",
+        "add_vessel",
+        "view_vesselkey",
+        "add_vesselkey",
+        "change_vesselkey",
+        "view_mission",
+        "add_mission",
+        "change_mission",
+        "delete_mission",
+        "view_missionitem",
+        "add_missionitem",
+        "change_missionitem",
+        "delete_missionitem",
+    ],
+    "telemetry": ["view_fix", "view_sensorchannel", "add_sensorchannel", "change_sensorchannel"],
+    "commands": ["view_command", "add_command", "change_command", "view_commandevent"],
+}
+DEMO_VESSELS = [
+    # slug, name, kind, start (lat, lon), telemetry period
+    ("spab", "SPAB", "mavlink", (-31.9790, 115.8170), 10),  # Matilda Bay, Swan River
+    ("spab-2", "SPAB 2", "mavlink", (-32.0560, 115.7400), 10),  # off Fremantle
+    ("glider", "Wave Glider", "wave_glider", (-32.0380, 115.3325), 300),  # thesis trial area
+]
+CHANNELS = [
+    ("water_temp_c", "Water temperature", "°C", 10, 30),
+    ("salinity_psu", "Salinity", "PSU", 30, 40),
+    ("humidity_pct", "Hull humidity", "%", 0, 100),
+]
+HISTORY = dt.timedelta(hours=3)
+
+
+class Command(BaseCommand):
+    help = "Create a demo fleet with an operator login, vessel keys and a few hours of history."
+
+    def add_arguments(self, parser: CommandParser) -> None:
+        parser.add_argument("--password", help="operator password (default: random, printed)")
+        parser.add_argument(
+            "--keys-file",
+            default=str(Path(settings.DATA_DIR) / "demo-keys.json"),
+            help="where to write the demo vessels' keys (mode 600)",
+        )
+
+    @transaction.atomic
+    def handle(self, *args: Any, **opts: Any) -> None:
+        password = opts["password"] or secrets.token_urlsafe(9)
+        user = self.operator(password)
+        for key, label, unit, lo, hi in CHANNELS:
+            if not SensorChannel.objects.filter(key=key).exists():
+                sensor_channel_save(
+                    channel=SensorChannel(key=key, label=label, unit=unit, minimum=lo, maximum=hi)
+                )
+        keys: dict[str, str] = {}
+        for slug, name, kind, start, period in DEMO_VESSELS:
+            vessel = Vessel.objects.filter(slug=slug).first()
+            if vessel is None:
+                vessel = vessel_create(slug=slug, name=name, kind=kind, telemetry_period_s=period)
+                self.history(vessel, start, period)
+            keys[slug] = vessel_key_issue(vessel=vessel, label="demo", created_by="seed_demo")[1]
+        self.demo_commands(user)
+        path = Path(opts["keys_file"])
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(keys, indent=1))
+        path.chmod(0o600)
+        self.stdout.write(self.style.SUCCESS("Demo fleet ready."))
+        self.stdout.write(f"  Log in at /admin/ as  user: {user.username}  password: {password}")
+        self.stdout.write(f"  Vessel keys (new ones, shown once) are in {path}")
+
+    def operator(self, password: str) -> User:
+        group, _ = Group.objects.get_or_create(name=OPERATOR_GROUP)
+        for app, codenames in OPERATOR_PERMS.items():
+            group.permissions.add(
+                *Permission.objects.filter(content_type__app_label=app, codename__in=codenames)
+            )
+        user, _ = User.objects.get_or_create(
+            username="operator", defaults={"email": "operator@example.org"}
+        )
+        user.is_staff = True
+        user.set_password(password)
+        user.save()
+        user.groups.add(group)
+        return user
+
+    def history(self, vessel: Vessel, start: tuple[float, float], period: int) -> None:
+        now = timezone.now()
+        boat = SimBoat(
+            lat=start[0],
+            lon=start[1],
+            speed_mps=1.0 if period > 60 else 2.0,
+            route=patrol_route(*start, radius_m=600),
+        )
+        step = max(period, 30)
+        t = now - HISTORY
+        records = []
+        while t < now:
+            boat.step(step)
+            records.append(boat.fix(t))
+            t += dt.timedelta(seconds=step)
+        fix_ingest(vessel=vessel, records=records, now=now)
+
+    def demo_commands(self, user: User) -> None:
+        spab = Vessel.objects.get(slug="spab")
+        if spab.commands.exists():
+            return
+        done = command_enqueue(
+            vessel=spab,
+            kind="move_to",
+            params={"lat": -31.9800, "lon": 115.8200},
+            source=Source.ADMIN,
+            created_by=user.username,
+        )
+        command_claim_open(vessel=spab)
+        command_ack(vessel=spab, uid=done.uid, status="acknowledged")
+        command_ack(vessel=spab, uid=done.uid, status="done", detail="arrived")
+        mission = mission_save(mission=Mission(name="Matilda Bay loop", vessel=spab, loop=True))
+        mission_save_items(
+            mission=mission,
+            items=[
+                {"lat": lat, "lon": lon, "hold_s": 0, "radius_m": 5}
+                for lat, lon in patrol_route(-31.9790, 115.8170, radius_m=300, points=5)
+            ],
+        )
