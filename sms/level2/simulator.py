@@ -61,7 +61,7 @@ FF_RUN_MAX = 256  # §2: the real line carried long 0xFF bursts; a few hundred b
 # keep it valid (a reply is expected). Extra frames (unknown type, other board, escaped length)
 # are sent before an intact request.
 BREAKING_FAULTS = ("bad_crc", "truncated", "bad_length")
-KEEPING_FAULTS = ("ff_run", "split", "escapes", "duplicate")
+KEEPING_FAULTS = ("ff_run", "split", "escapes", "duplicate", "lost_reply")
 EXTRA_FAULTS = ("unknown_type", "other_board", "escaped_length")
 FAULTS = BREAKING_FAULTS + KEEPING_FAULTS + EXTRA_FAULTS
 
@@ -316,16 +316,32 @@ class CcSimulator:
             reply = self._wait_reply(frame, self.config.reply_wait_s)
             if reply is not None:
                 self.stats.answered += 1
-                if fault == "duplicate":
-                    second = self._wait_reply(frame, self.config.reply_wait_s)
-                    if second is None or bytes(second) != bytes(reply):
-                        self.stats.duplicate_mismatches += 1
-                    else:
-                        self.stats.answered += 1
+                if fault in ("duplicate", "lost_reply"):
+                    self._check_retry_answer(frame, reply, fault)
                 return reply
             self.stats.unanswered.append((tid, summarize(frame)))
             self.clock.sleep(self.config.retry_interval_s)
         return None
+
+    def _check_retry_answer(self, frame: Frame, reply: Frame, fault: str) -> None:
+        """A repeated request (same tid) must get a byte-identical answer (§10, §16).
+
+        ``duplicate``: the request went twice back to back, so a second answer is due now.
+        ``lost_reply``: act as if the answer was lost on the line: resend after the retry
+        interval, as the real C&C does.
+        """
+        self.stats.valid_attempts += 1
+        if fault == "lost_reply":
+            self.clock.sleep(self.config.retry_interval_s)
+            self.stats.attempts += 1
+            self._send(bytes(frame), frame, "retry after lost reply")
+        second = self._wait_reply(frame, self.config.reply_wait_s)
+        if second is None:
+            self.stats.unanswered.append((frame.tid, summarize(frame)))
+        elif bytes(second) != bytes(reply):
+            self.stats.duplicate_mismatches += 1
+        else:
+            self.stats.answered += 1
 
     def _pick_fault(self, allow_escapes: bool = True) -> str | None:
         faults = [f for f in self.config.faults if allow_escapes or f != "escapes"]
@@ -369,7 +385,6 @@ class CcSimulator:
 
     def _send_extra(self, fault: str) -> None:
         """Frames the payload must ignore, sent before an intact request."""
-        assert self.payload is not None or fault == "unknown_type"
         target = self.payload or BROADCAST
         if fault == "unknown_type":
             extra = Frame.make(
