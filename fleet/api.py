@@ -34,9 +34,11 @@ def exception_handler(exc: Exception, context: dict[str, Any]) -> Response | Non
         code = exc.get_codes()
         if not isinstance(code, str):
             code = "invalid"
+        # DRF wraps plain errors as {"detail": msg}; a ValidationError's dict is field errors,
+        # where "detail" may be a field's own name (the ack's `detail`), so it stays whole.
         detail = (
             response.data.get("detail", response.data)
-            if isinstance(response.data, dict)
+            if isinstance(response.data, dict) and not isinstance(exc, exceptions.ValidationError)
             else response.data
         )
         response.data = {"error": code, "detail": detail}
