@@ -380,6 +380,8 @@ class PayloadMachine:
         return [frame.reply(MessageType.ACK, bytes(StatusReply(block)), src=self.config.address)]
 
     def _on_queued(self, frame: Frame) -> list[Frame]:
+        if frame.no_ack:
+            return []  # the answer could not be sent, so nothing may be taken for it
         queued = self.source.take_next()
         if queued is None:
             if not self.config.nak_empty_queue:
