@@ -243,14 +243,19 @@ def command_ack(
 def command_cancel(*, command: Command, actor: str, now: dt.datetime | None = None) -> Command:
     """Cancel a queued or sent command. A sent one may already have reached the boat."""
     now = now or timezone.now()
-    command.refresh_from_db()
-    detail = "cancelled by operator"
-    if command.status == Status.SENT:
-        detail += " (it may already have reached the vessel)"
-    if not _transition(command, Status.CANCELLED, now=now, actor=actor, detail=detail):
+    # Races with the boat poll (queued→sent) and acks: when the conditional UPDATE loses,
+    # read the new status and try again from there (sent may still be cancelled; acknowledged
+    # may not). Three tries: each loss means the command moved forward, and it can only move
+    # forward a few times.
+    for _attempt in range(3):
         command.refresh_from_db()
-        raise TransitionError(Status(command.status), Status.CANCELLED)
-    return command
+        detail = "cancelled by operator"
+        if command.status == Status.SENT:
+            detail += " (it may already have reached the vessel)"
+        if _transition(command, Status.CANCELLED, now=now, actor=actor, detail=detail):
+            return command
+    command.refresh_from_db()
+    raise TransitionError(Status(command.status), Status.CANCELLED)
 
 
 LEGACY_KINDS = ["move_to", "hold"]
