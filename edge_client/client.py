@@ -1,0 +1,248 @@
+"""The edge client's main loop: sample → outbox → uplink, poll → executor.
+
+Threads and what each owns:
+
+- ``mavlink-reader`` (:class:`MavlinkLink`): receives MAVLink, keeps the vehicle state;
+- ``executor`` (:class:`Executor`): runs commands (arming can take a minute; a mission upload
+  several seconds) without holding up telemetry;
+- ``uplink``: the only thread that talks to the server: sends queued acks, then fixes in
+  batches, then polls for commands. A slow or absent server delays only this thread;
+- the caller's thread (:meth:`EdgeClient.run`): every telemetry period puts a fix into the
+  outbox, pings the systemd watchdog while the other threads are alive, and watches the stop
+  flag that SIGTERM sets.
+
+Stopping flushes nothing: everything worth keeping is already committed in the outbox, so the
+shutdown only stops threads (an in-flight request is abandoned; its items stay queued).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+
+from edge_client import systemd
+from edge_client.config import Config
+from edge_client.executor import Executor
+from edge_client.mavlink_link import MavlinkLink
+from edge_client.outbox import Outbox, settle_fix_batch
+from edge_client.transports.base import Transport, TransportError
+
+log = logging.getLogger(__name__)
+
+TELEMETRY_PATH = "/api/v1/boat/telemetry/"
+COMMANDS_PATH = "/api/v1/boat/commands/"
+ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
+MAX_OUTAGE_BACKOFF_S = 60.0
+# Ack answers that will never change (DESIGN §5): unknown/other vessel's command, illegal
+# transition (cancelled meanwhile), malformed.
+ACK_DROP_STATUSES = frozenset({400, 404, 409})
+
+
+class EdgeClient:
+    def __init__(
+        self,
+        config: Config,
+        *,
+        transport: Transport,
+        link: MavlinkLink,
+        outbox: Outbox,
+        stop: threading.Event | None = None,
+    ) -> None:
+        self.config = config
+        self.transport = transport
+        self.link = link
+        self.outbox = outbox
+        self.stop_event = stop or threading.Event()
+        self._kick = threading.Event()
+        self.executor = Executor(link, outbox, config.commands, on_ack=self._kick.set)
+        self.etag: str | None = None
+        self.server_ok: bool | None = None
+        self._uplink: threading.Thread | None = None
+        self._failures = 0
+        self._next_poll = 0.0
+
+    # -- the main thread ----------------------------------------------------------------------
+
+    def run(self, on_ready: Callable[[], None] | None = None) -> int:
+        """Run until the stop flag is set. Returns the process exit status."""
+        self.executor.recover()
+        self.link.start()
+        self.executor.start()
+        self._uplink = threading.Thread(target=self._uplink_loop, name="uplink", daemon=True)
+        self._uplink.start()
+        systemd.ready(f"talking to {self.config.mavlink.connection}")
+        log.info(
+            "edge client ready: %s -> %s (%s transport)",
+            self.config.mavlink.connection,
+            self.config.server.url,
+            self.config.transport.kind,
+        )
+        if on_ready:
+            on_ready()
+        watchdog_every = systemd.watchdog_interval()
+        next_sample = time.monotonic()
+        next_watchdog = 0.0
+        warned_no_fix = False
+        try:
+            while not self.stop_event.is_set():
+                now = time.monotonic()
+                if now >= next_sample:
+                    next_sample = max(next_sample + self.config.telemetry.period_s, now)
+                    warned_no_fix = self.sample(warned_no_fix)
+                if watchdog_every and now >= next_watchdog and self.healthy():
+                    systemd.watchdog()
+                    next_watchdog = now + watchdog_every
+                self.stop_event.wait(min(0.2, max(0.0, next_sample - time.monotonic())))
+        finally:
+            self.shutdown()
+        return 0
+
+    def sample(self, warned: bool = False) -> bool:
+        """Put the current fix into the outbox. Returns True while there is no fix to record."""
+        fix = self.link.state.fix()
+        if fix is None:
+            if not warned:
+                log.warning("no position from the autopilot yet; not recording fixes")
+            return True
+        evicted_total = self.outbox.counter("evicted_fixes")
+        if evicted_total:
+            fix["readings"]["edge_evicted_fixes"] = evicted_total  # reported to the shore
+        self.outbox.add_fix(fix)
+        return False
+
+    def healthy(self) -> bool:
+        return (
+            self.link.is_alive()
+            and self.executor.is_alive()
+            and self._uplink is not None
+            and self._uplink.is_alive()
+        )
+
+    def shutdown(self) -> None:
+        log.info("stopping")
+        systemd.stopping()
+        self.stop_event.set()
+        self._kick.set()
+        self.executor.stop()
+        if self._uplink is not None:
+            # An in-flight request is bounded by the transport timeout; its items stay queued.
+            self._uplink.join(timeout=5)
+        self.link.stop()
+        self.transport.close()
+        log.info(
+            "stopped; %d fixes and %d acks queued",
+            self.outbox.count("fix"),
+            self.outbox.count("ack"),
+        )
+
+    # -- the uplink thread --------------------------------------------------------------------
+
+    def _uplink_loop(self) -> None:
+        while not self.stop_event.is_set():
+            wait = self.uplink_once(time.monotonic())
+            self._kick.wait(wait)
+            self._kick.clear()
+
+    def uplink_once(self, now: float) -> float:
+        """One round: acks, fixes, poll if due. Returns how long to wait before the next round."""
+        period = self.config.commands.poll_period_s
+        try:
+            self.flush_acks()
+            self.flush_fixes()
+            if now >= self._next_poll:
+                self.poll()
+                self._next_poll = now + period
+        except TransportError as exc:
+            self._failures += 1
+            self._report(False, exc)
+            return min(MAX_OUTAGE_BACKOFF_S, period * 2 ** min(self._failures, 6))
+        self._failures = 0
+        self._report(True)
+        return max(0.05, min(period, self._next_poll - time.monotonic()))
+
+    def _report(self, ok: bool, exc: TransportError | None = None) -> None:
+        if ok and self.server_ok is not True:
+            log.info("server reachable; %d fixes queued", self.outbox.count("fix"))
+        elif not ok and self.server_ok is not False:
+            if exc is not None and exc.status in (401, 403):
+                log.error(
+                    "the server refused the vessel key (HTTP %s); check [server] key", exc.status
+                )
+            else:
+                log.warning("server unreachable: %s; fixes stay queued", exc)
+        self.server_ok = ok
+
+    def flush_acks(self) -> None:
+        for item in self.outbox.peek("ack", 50):
+            body = item.body
+            try:
+                self.transport.post_json(
+                    ACK_PATH.format(uid=body["uid"]),
+                    {"status": body["status"], "detail": body["detail"]},
+                )
+            except TransportError as exc:
+                if exc.permanent and exc.status in ACK_DROP_STATUSES:
+                    log.warning(
+                        "server will never take ack %s %s (%s); dropping it",
+                        body["uid"],
+                        body["status"],
+                        exc,
+                    )
+                    self.outbox.bump("dropped_acks")
+                else:
+                    raise
+            self.outbox.remove([item.id])
+
+    def flush_fixes(self) -> None:
+        batch_size = self.config.telemetry.batch_size
+        while not self.stop_event.is_set():
+            items = self.outbox.peek("fix", batch_size)
+            if not items:
+                return
+            if not self._send_fixes(items):
+                return
+
+    def _send_fixes(self, items: list) -> bool:
+        """POST one batch; True if every fix in it was settled (so the caller may go on)."""
+        ids = [i.id for i in items]
+        try:
+            response = self.transport.post_json(TELEMETRY_PATH, {"fixes": [i.body for i in items]})
+        except TransportError as exc:
+            if exc.status != 400:
+                raise
+            # "Whole body malformed": one poisoned fix must not block the rest. Split until it
+            # is alone, then drop it.
+            if len(items) == 1:
+                log.warning(
+                    "server refuses fix %s as malformed (%s); dropping it", items[0].body, exc
+                )
+                self.outbox.bump("rejected_fixes")
+                self.outbox.remove(ids)
+                return True
+            half = len(items) // 2
+            return self._send_fixes(items[:half]) and self._send_fixes(items[half:])
+        settlement = settle_fix_batch(ids, response.json())
+        if settlement.keep_reason:
+            log.warning("keeping %d fixes: %s", len(ids), settlement.keep_reason)
+            return False
+        for fix_id, errors in settlement.rejected:
+            log.warning("server rejected fix %d: %s; dropping it", fix_id, errors)
+        if settlement.rejected:
+            self.outbox.bump("rejected_fixes", len(settlement.rejected))
+        self.outbox.remove(settlement.remove)
+        return True
+
+    def poll(self) -> None:
+        response = self.transport.get(COMMANDS_PATH, self.etag)
+        if response.status == 304:
+            return
+        data = response.json()
+        commands = data.get("commands") if isinstance(data, dict) else None
+        if not isinstance(commands, list):
+            raise TransportError("commands answer has no commands list")
+        new = self.executor.offer(commands)
+        if new:
+            log.info("%d new command(s) from the server", new)
+        self.etag = response.etag

@@ -1,0 +1,343 @@
+"""Configuration: one TOML file (``/etc/shoreside/edge.toml``) plus command-line overrides.
+
+Parsed once into frozen dataclasses. Anything wrong (unknown key, wrong type, out of range,
+missing server URL) raises :class:`ConfigError`, a ``ValueError`` whose message names the file,
+the table and the key, so ``systemctl status`` shows what to fix.
+
+Example file (every table and key is optional except where a value has no default)::
+
+    [server]
+    url = "https://shore.example.org"
+    key_file = "/etc/shoreside/edge.key"   # or key = "..."; or env SHORESIDE_EDGE_KEY
+
+    [mavlink]
+    connection = "/dev/ttyAMA0"            # or "udpin:0.0.0.0:14550", "tcp:127.0.0.1:5760"
+    baud = 57600
+
+    [telemetry]
+    period_s = 10
+
+    [commands]
+    poll_period_s = 10
+
+    [outbox]
+    path = "/var/lib/shoreside-edge/outbox.sqlite3"
+    max_fixes = 100000
+
+    [transport]
+    kind = "http"                           # or "modem"
+
+    [readings.water_temp_c]                 # extra sensor values sent in a fix's "readings"
+    message = "SCALED_PRESSURE2"
+    field = "temperature"
+    scale = 0.01
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlsplit
+
+KEY_ENV = "SHORESIDE_EDGE_KEY"
+
+
+class ConfigError(ValueError):
+    """The configuration cannot be used; the message says where and why."""
+
+
+@dataclass(frozen=True)
+class ServerConfig:
+    url: str = ""
+    key: str = ""
+    key_file: str = ""
+
+
+@dataclass(frozen=True)
+class MavlinkConfig:
+    connection: str = "/dev/ttyAMA0"
+    baud: int = 57600
+    # Our own MAVLink identity: a companion computer (MAV_COMP_ID_ONBOARD_COMPUTER = 191).
+    source_system: int = 1
+    source_component: int = 191
+    # Rate asked of the autopilot for GLOBAL_POSITION_INT and friends
+    # (MAV_CMD_SET_MESSAGE_INTERVAL).
+    stream_rate_hz: float = 4.0
+    # No HEARTBEAT for this long and the autopilot counts as silent.
+    silent_after_s: float = 5.0
+
+
+@dataclass(frozen=True)
+class TelemetryConfig:
+    period_s: float = 10.0
+    batch_size: int = 50
+
+
+@dataclass(frozen=True)
+class CommandsConfig:
+    poll_period_s: float = 10.0
+    arm_before_move: bool = True
+    arm_timeout_s: float = 60.0
+    mode_timeout_s: float = 3.0
+    acceptance_radius_m: float = 10.0
+
+
+@dataclass(frozen=True)
+class OutboxConfig:
+    path: str = "/var/lib/shoreside-edge/outbox.sqlite3"
+    max_fixes: int = 100_000
+
+
+@dataclass(frozen=True)
+class ModemConfig:
+    port: str = "/dev/ttyUSB0"
+    baud: int = 115200
+    trigger: str = "don"
+    connect_delay_s: float = 1.0
+
+
+@dataclass(frozen=True)
+class TransportConfig:
+    kind: str = "http"
+    timeout_s: float = 20.0
+    retries: int = 2
+    backoff_s: float = 1.0
+    ca_bundle: str = ""
+    modem: ModemConfig = field(default_factory=ModemConfig)
+
+
+@dataclass(frozen=True)
+class ReadingSource:
+    """One extra reading: ``<message>.<field> * scale`` from the autopilot, sent as ``name``."""
+
+    name: str
+    message: str
+    field: str
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class Config:
+    server: ServerConfig = field(default_factory=ServerConfig)
+    mavlink: MavlinkConfig = field(default_factory=MavlinkConfig)
+    telemetry: TelemetryConfig = field(default_factory=TelemetryConfig)
+    commands: CommandsConfig = field(default_factory=CommandsConfig)
+    outbox: OutboxConfig = field(default_factory=OutboxConfig)
+    transport: TransportConfig = field(default_factory=TransportConfig)
+    readings: tuple[ReadingSource, ...] = ()
+    log_level: str = "INFO"
+
+
+# Command-line flag → (table, key). Flags override the file and make it optional.
+OVERRIDES: dict[str, tuple[str, str]] = {
+    "server": ("server", "url"),
+    "key": ("server", "key"),
+    "mavlink": ("mavlink", "connection"),
+    "baud": ("mavlink", "baud"),
+    "telemetry_period": ("telemetry", "period_s"),
+    "poll_period": ("commands", "poll_period_s"),
+    "outbox": ("outbox", "path"),
+    "transport": ("transport", "kind"),
+    "modem_port": ("modem", "port"),
+    "log_level": ("", "log_level"),
+}
+
+_TRANSPORT_KINDS = ("http", "modem")
+_LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR")
+
+
+def load_config(
+    path: str | os.PathLike[str] | None, overrides: dict[str, Any] | None = None
+) -> Config:
+    """Read ``path`` (if given), apply ``overrides`` (flag name → value, None = not given), check.
+
+    1. Parse the TOML file; a syntax error names the line.
+    2. Build each table's dataclass, refusing unknown keys and wrong types.
+    3. Apply the overrides on top.
+    4. Resolve the vessel key (flag/file value, ``key_file``, or ``$SHORESIDE_EDGE_KEY``).
+    5. Check cross-field rules (server URL present and http(s), periods positive, ...).
+    """
+    source = str(path) if path else "command line"
+    raw: dict[str, Any] = {}
+    if path:
+        try:
+            with open(path, "rb") as fh:
+                raw = tomllib.load(fh)
+        except FileNotFoundError:
+            raise ConfigError(f"{source}: no such file") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+    raw = {k: (dict(v) if isinstance(v, dict) else v) for k, v in raw.items()}
+    transport_raw = dict(raw.get("transport", {}) or {})
+    modem_raw = transport_raw.pop("modem", {})
+    for name, value in (overrides or {}).items():
+        if value is None:
+            continue
+        table, key = OVERRIDES[name]
+        if table == "":
+            raw[key] = value
+        elif table == "modem":
+            modem_raw = {**modem_raw, key: value}
+        elif table == "transport":
+            transport_raw[key] = value
+        else:
+            raw.setdefault(table, {})
+            if not isinstance(raw[table], dict):
+                raise ConfigError(f"{source}: [{table}] must be a table")
+            raw[table][key] = value
+
+    known_top = {"server", "mavlink", "telemetry", "commands", "outbox", "transport", "readings"}
+    known_top |= {"log_level"}
+    for key in raw:
+        if key not in known_top:
+            raise ConfigError(f"{source}: unknown setting {key!r} (known: {sorted(known_top)})")
+
+    modem = _build(ModemConfig, modem_raw, f"{source}: [transport.modem]")
+    transport = replace(
+        _build(TransportConfig, transport_raw, f"{source}: [transport]", skip={"modem"}),
+        modem=modem,
+    )
+    log_level = raw.get("log_level", "INFO")
+    if not isinstance(log_level, str) or log_level.upper() not in _LOG_LEVELS:
+        raise ConfigError(f"{source}: log_level must be one of {', '.join(_LOG_LEVELS)}")
+    config = Config(
+        server=_build(ServerConfig, raw.get("server", {}), f"{source}: [server]"),
+        mavlink=_build(MavlinkConfig, raw.get("mavlink", {}), f"{source}: [mavlink]"),
+        telemetry=_build(TelemetryConfig, raw.get("telemetry", {}), f"{source}: [telemetry]"),
+        commands=_build(CommandsConfig, raw.get("commands", {}), f"{source}: [commands]"),
+        outbox=_build(OutboxConfig, raw.get("outbox", {}), f"{source}: [outbox]"),
+        transport=transport,
+        readings=_readings(raw.get("readings", {}), source),
+        log_level=log_level.upper(),
+    )
+    config = replace(config, server=replace(config.server, key=_resolve_key(config.server, source)))
+    _check(config, source)
+    return config
+
+
+def _build(cls: type, values: Any, where: str, skip: frozenset[str] | set[str] = frozenset()):
+    if not isinstance(values, dict):
+        raise ConfigError(f"{where} must be a table")
+    known = {f.name: f for f in fields(cls) if f.name not in skip}
+    kwargs: dict[str, Any] = {}
+    defaults = cls()
+    for key, value in values.items():
+        if key not in known:
+            raise ConfigError(f"{where}: unknown key {key!r} (known: {', '.join(sorted(known))})")
+        expected = type(getattr(defaults, key))
+        kwargs[key] = _coerce(value, expected, f"{where} {key}")
+    return cls(**kwargs)
+
+
+def _coerce(value: Any, expected: type, where: str) -> Any:
+    # bool is an int subclass: check it first so `baud = true` is refused.
+    if expected is bool:
+        if isinstance(value, bool):
+            return value
+        raise ConfigError(f"{where}: expected true or false, got {value!r}")
+    if isinstance(value, bool):
+        raise ConfigError(f"{where}: expected {expected.__name__}, got {value!r}")
+    if expected is int:
+        if isinstance(value, int):
+            return value
+        if isinstance(value, str) and value.strip().lstrip("-").isdigit():
+            return int(value)  # from a command-line flag
+        raise ConfigError(f"{where}: expected a whole number, got {value!r}")
+    if expected is float:
+        if isinstance(value, int | float):
+            return float(value)
+        if isinstance(value, str):
+            try:
+                return float(value)
+            except ValueError:
+                pass
+        raise ConfigError(f"{where}: expected a number, got {value!r}")
+    if expected is str:
+        if isinstance(value, str):
+            return value
+        raise ConfigError(f"{where}: expected a string, got {value!r}")
+    raise ConfigError(f"{where}: unsupported value {value!r}")  # pragma: no cover
+
+
+def _readings(values: Any, source: str) -> tuple[ReadingSource, ...]:
+    if not isinstance(values, dict):
+        raise ConfigError(f"{source}: [readings] must be a table of tables")
+    out = []
+    for name, spec in values.items():
+        where = f"{source}: [readings.{name}]"
+        if not isinstance(spec, dict):
+            raise ConfigError(f"{where} must be a table with message, field and optional scale")
+        unknown = set(spec) - {"message", "field", "scale"}
+        if unknown:
+            raise ConfigError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+        if "message" not in spec or "field" not in spec:
+            raise ConfigError(f"{where}: needs both message and field")
+        message = _coerce(spec["message"], str, f"{where} message")
+        if not message.isupper() or not message.replace("_", "").isalnum():
+            raise ConfigError(f"{where} message: {message!r} is not a MAVLink message name")
+        out.append(
+            ReadingSource(
+                name=name,
+                message=message,
+                field=_coerce(spec["field"], str, f"{where} field"),
+                scale=_coerce(spec.get("scale", 1.0), float, f"{where} scale"),
+            )
+        )
+    return tuple(out)
+
+
+def _resolve_key(server: ServerConfig, source: str) -> str:
+    if server.key:
+        return server.key.strip()
+    if server.key_file:
+        try:
+            return Path(server.key_file).read_text().strip()
+        except OSError as exc:
+            raise ConfigError(f"{source}: [server] key_file: cannot read: {exc}") from None
+    return os.environ.get(KEY_ENV, "").strip()
+
+
+def _check(config: Config, source: str) -> None:
+    url = config.server.url
+    if not url:
+        raise ConfigError(f"{source}: [server] url is required (or pass --server URL)")
+    parts = urlsplit(url)
+    if parts.scheme not in ("http", "https") or not parts.hostname:
+        raise ConfigError(f"{source}: [server] url: {url!r} is not an http:// or https:// URL")
+    if not config.server.key:
+        raise ConfigError(
+            f"{source}: no vessel key: set [server] key or key_file, pass --key, or set ${KEY_ENV}"
+        )
+    if not config.mavlink.connection:
+        raise ConfigError(f"{source}: [mavlink] connection is required")
+    positive = {
+        "[mavlink] baud": config.mavlink.baud,
+        "[mavlink] stream_rate_hz": config.mavlink.stream_rate_hz,
+        "[mavlink] silent_after_s": config.mavlink.silent_after_s,
+        "[telemetry] period_s": config.telemetry.period_s,
+        "[telemetry] batch_size": config.telemetry.batch_size,
+        "[commands] poll_period_s": config.commands.poll_period_s,
+        "[commands] arm_timeout_s": config.commands.arm_timeout_s,
+        "[commands] mode_timeout_s": config.commands.mode_timeout_s,
+        "[commands] acceptance_radius_m": config.commands.acceptance_radius_m,
+        "[outbox] max_fixes": config.outbox.max_fixes,
+        "[transport] timeout_s": config.transport.timeout_s,
+        "[transport.modem] baud": config.transport.modem.baud,
+    }
+    for where, value in positive.items():
+        if value <= 0:
+            raise ConfigError(f"{source}: {where} must be greater than zero, got {value}")
+    if config.transport.retries < 0 or config.transport.backoff_s < 0:
+        raise ConfigError(f"{source}: [transport] retries and backoff_s cannot be negative")
+    if config.transport.kind not in _TRANSPORT_KINDS:
+        raise ConfigError(
+            f"{source}: [transport] kind: {config.transport.kind!r} is not one of "
+            f"{', '.join(_TRANSPORT_KINDS)}"
+        )
+    if config.transport.kind == "modem" and not config.transport.modem.trigger:
+        raise ConfigError(f"{source}: [transport.modem] trigger cannot be empty")
+    if not config.outbox.path:
+        raise ConfigError(f"{source}: [outbox] path is required")

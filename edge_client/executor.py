@@ -1,0 +1,387 @@
+"""Commands from the server → autopilot actions, each command uid run exactly once.
+
+Delivery is at least once (DESIGN §4): a command is offered on every poll until the boat acks
+it, and again after a restart if the ack had not gone out. So every uid is recorded in the
+outbox database *before* it runs (:meth:`Outbox.command_claim`) and a uid seen before is never
+run again. A command that was running when the client died cannot be resumed safely; at the
+next start it is acked ``failed`` with that reason.
+
+Acks go into the outbox (they survive an outage like fixes do): ``acknowledged`` when the
+autopilot has accepted the command, then ``done`` or ``failed`` with a reason a person can read.
+
+Kind → action (mission-files.md for the Rover modes):
+``move_to`` GUIDED + SET_POSITION_TARGET_GLOBAL_INT, done within the acceptance radius;
+``hold`` HOLD; ``resume`` AUTO; ``return_home`` RTL; ``set_mode``; ``arm``/``disarm``;
+``mission`` upload (home as item 0) then MISSION_SET_CURRENT 1 and AUTO, done when the last
+waypoint is reached (a looping mission is done once it is running). Commands that make the boat
+move arm it first when it is disarmed (``arm_before_move``), waiting out pre-arm checks.
+
+The parameter checks (:func:`validate`) are pure and tested on their own.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any
+
+from edge_client.config import CommandsConfig
+from edge_client.mavlink_link import LinkDown, MavlinkLink
+from edge_client.mission import MAV_CMD_NAV_WAYPOINT, build_mission, result_name
+from edge_client.outbox import Outbox
+from edge_client.vehicle import CLOCK_SANE_AFTER, ROVER_MODES
+
+log = logging.getLogger(__name__)
+
+ACKNOWLEDGED, DONE, FAILED = "acknowledged", "done", "failed"
+# Kinds that give the boat a new navigation goal, replacing whatever it was doing.
+NAVIGATION_KINDS = frozenset({"move_to", "hold", "resume", "return_home", "set_mode", "mission"})
+# Modes in which Rover drives by itself: entering one arms first (when allowed).
+MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
+MAX_MISSION_ITEMS = 700  # ArduPilot's default storage holds ~700 items on a Pixhawk-class board
+
+
+class CommandError(ValueError):
+    """A command that cannot run; the message is the ack's detail."""
+
+
+@dataclass(frozen=True)
+class Command:
+    uid: str
+    kind: str
+    params: dict[str, Any]
+    expires_at: datetime | None = None
+
+
+def parse_command(raw: Any) -> Command:
+    """One entry of ``GET boat/commands/`` → Command (params not yet validated)."""
+    if not isinstance(raw, dict) or not isinstance(raw.get("uid"), str) or not raw["uid"]:
+        raise CommandError(f"command without a uid: {raw!r}")
+    params = raw.get("params") or {}
+    if not isinstance(params, dict):
+        raise CommandError("params is not an object")
+    expires = None
+    if raw.get("expires_at"):
+        try:
+            expires = datetime.fromisoformat(str(raw["expires_at"]).replace("Z", "+00:00"))
+        except ValueError:
+            expires = None  # the server's business; don't refuse a command over it
+    return Command(uid=raw["uid"], kind=str(raw.get("kind", "")), params=params, expires_at=expires)
+
+
+def _number(params: dict[str, Any], name: str, lo: float, hi: float) -> float:
+    value = params.get(name)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise CommandError(f"{name} must be a number, got {value!r}")
+    if not lo <= value <= hi:
+        raise CommandError(f"{name} {value} is outside {lo}…{hi}")
+    return float(value)
+
+
+def validate(kind: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Check a command's params (the server validated them too; a boat trusts no one)."""
+    if kind == "move_to":
+        return {"lat": _number(params, "lat", -90, 90), "lon": _number(params, "lon", -180, 180)}
+    if kind in ("hold", "resume", "return_home", "arm", "disarm"):
+        return {}
+    if kind == "set_mode":
+        mode = params.get("mode")
+        if not isinstance(mode, str) or mode.upper() not in ROVER_MODES:
+            raise CommandError(f"unknown Rover mode {mode!r} (known: {', '.join(ROVER_MODES)})")
+        return {"mode": mode.upper()}
+    if kind == "mission":
+        items = params.get("items")
+        if not isinstance(items, list) or not items:
+            raise CommandError("mission has no items")
+        if len(items) > MAX_MISSION_ITEMS:
+            raise CommandError(f"mission has {len(items)} items, more than {MAX_MISSION_ITEMS}")
+        clean = []
+        for i, item in enumerate(items):
+            if not isinstance(item, dict):
+                raise CommandError(f"item {i} is not an object")
+            try:
+                clean.append(
+                    {
+                        "lat": _number(item, "lat", -90, 90),
+                        "lon": _number(item, "lon", -180, 180),
+                        "hold_s": _number({"v": item.get("hold_s") or 0}, "v", 0, 86400),
+                        "radius_m": _number({"v": item.get("radius_m") or 0}, "v", 0, 10_000),
+                    }
+                )
+            except CommandError as exc:
+                raise CommandError(f"item {i}: {exc}") from None
+        return {
+            "items": clean,
+            "loop": bool(params.get("loop", False)),
+            "mission_id": params.get("mission_id"),
+        }
+    raise CommandError(f"unknown command kind {kind!r}")
+
+
+@dataclass
+class Active:
+    """A command that was accepted and whose outcome is still to be seen."""
+
+    command: Command
+    check: Callable[[], tuple[str, str] | None]  # → (DONE|FAILED, detail) once decided
+
+
+@dataclass
+class ModeSeen:
+    """Tracks whether the vehicle entered ``mode`` and has since left it.
+
+    The mode is confirmed from HEARTBEAT, which can lag the COMMAND_ACK by up to a second;
+    "left" only counts after the mode was seen once, so that lag is not taken for a change.
+    """
+
+    mode: str
+    entered: bool = False
+
+    def left(self, current: str | None) -> bool:
+        if current == self.mode:
+            self.entered = True
+            return False
+        return self.entered
+
+
+class Executor:
+    def __init__(
+        self,
+        link: MavlinkLink,
+        outbox: Outbox,
+        config: CommandsConfig,
+        on_ack: Callable[[], None] | None = None,
+    ) -> None:
+        self.link = link
+        self.outbox = outbox
+        self.config = config
+        self.on_ack = on_ack  # wakes the uplink so acks go out promptly
+        self.active: Active | None = None
+        self.executed: list[str] = []  # uids run in this process, in order (for tests and logs)
+        self._queue: queue.Queue[Command] = queue.Queue()
+        self._known: set[str] = set()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # -- lifecycle ----------------------------------------------------------------------------
+
+    def recover(self) -> None:
+        """Fail the commands that were running when the client last stopped (cannot resume)."""
+        for uid, kind in self.outbox.commands_interrupted():
+            log.warning("command %s (%s) was interrupted by a restart", uid, kind)
+            self._ack(
+                Command(uid, kind, {}),
+                FAILED,
+                "edge client restarted while the command was running",
+            )
+        self.outbox.commands_forget_old()
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="executor", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 10.0) -> None:
+        self._stop.set()
+        if self._thread:
+            self._thread.join(timeout)
+
+    def is_alive(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def offer(self, raw_commands: list[Any]) -> int:
+        """Take the commands from a poll; queue those never seen before. Returns how many."""
+        new = 0
+        for raw in raw_commands:
+            try:
+                command = parse_command(raw)
+            except CommandError as exc:
+                log.warning("ignoring malformed command: %s", exc)
+                continue
+            if command.uid in self._known:
+                continue
+            self._known.add(command.uid)
+            # The claim is committed before the command runs: at most once, even across a crash.
+            if not self.outbox.command_claim(command.uid, command.kind):
+                log.debug("command %s already handled before; not running it again", command.uid)
+                continue
+            new += 1
+            self._queue.put(command)
+        return new
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                command = self._queue.get(timeout=0.2)
+            except queue.Empty:
+                self.watch()
+                continue
+            self.execute(command)
+            self.watch()
+
+    # -- running one command ------------------------------------------------------------------
+
+    def execute(self, command: Command) -> None:
+        """Run one claimed command; every path ends in an ack (or an Active to watch)."""
+        log.info("command %s: %s %s", command.uid, command.kind, command.params)
+        self.executed.append(command.uid)
+        try:
+            params = validate(command.kind, command.params)
+            if command.expires_at and time.time() > CLOCK_SANE_AFTER:
+                if datetime.now(UTC) > command.expires_at:
+                    raise CommandError(f"expired at {command.expires_at.isoformat()} before it ran")
+            if command.kind in NAVIGATION_KINDS or command.kind == "disarm":
+                self._supersede(command)
+            getattr(self, f"_do_{command.kind}")(command, params)
+        except CommandError as exc:
+            self._ack(command, FAILED, str(exc))
+        except LinkDown as exc:
+            self._ack(command, FAILED, f"autopilot not reachable: {exc}")
+        except Exception as exc:  # a bug must not kill the executor thread
+            log.exception("command %s crashed", command.uid)
+            self._ack(command, FAILED, f"edge client error: {exc.__class__.__name__}: {exc}")
+
+    def watch(self) -> None:
+        """Decide the active command's outcome if it is known now."""
+        active = self.active
+        if active is None:
+            return
+        try:
+            outcome = active.check()
+        except Exception as exc:
+            log.exception("watching %s failed", active.command.uid)
+            outcome = (FAILED, f"edge client error: {exc}")
+        if outcome is not None:
+            self.active = None
+            self._ack(active.command, *outcome)
+
+    def _supersede(self, command: Command) -> None:
+        if self.active is not None:
+            old, self.active = self.active, None
+            self._ack(old.command, FAILED, f"replaced by {command.kind} command {command.uid}")
+
+    def _ack(self, command: Command, status: str, detail: str) -> None:
+        log.info("command %s: %s %s", command.uid, status, detail)
+        self.outbox.add_ack(command.uid, status, detail)
+        if status != ACKNOWLEDGED:
+            self.outbox.command_finish(command.uid)
+        if self.on_ack:
+            self.on_ack()
+
+    def _mode(self, name: str) -> str:
+        ok, detail = self.link.set_mode(name, timeout=self.config.mode_timeout_s)
+        if not ok:
+            raise CommandError(detail)
+        return detail
+
+    def _ensure_armed(self) -> None:
+        if self.link.state.armed:
+            return
+        if not self.config.arm_before_move:
+            raise CommandError("vehicle is disarmed and arm_before_move is off")
+        ok, detail = self.link.arm(self.config.arm_timeout_s, stop=self._stop)
+        if not ok:
+            raise CommandError(detail)
+
+    # -- one method per kind ------------------------------------------------------------------
+
+    def _do_move_to(self, command: Command, p: dict[str, Any]) -> None:
+        self.link.target()  # fail fast with LinkDown before arming anything
+        self._ensure_armed()
+        self._mode("GUIDED")
+        self.link.goto(p["lat"], p["lon"])
+        radius = self.config.acceptance_radius_m
+        self._ack(command, ACKNOWLEDGED, f"GUIDED to {p['lat']:.6f}, {p['lon']:.6f}")
+        state = self.link.state
+
+        seen = ModeSeen("GUIDED")
+
+        def check() -> tuple[str, str] | None:
+            distance = state.distance_to(p["lat"], p["lon"])
+            if distance is not None and distance <= radius:
+                return DONE, f"arrived within {distance:.1f} m (radius {radius:g} m)"
+            if seen.left(state.mode):
+                return FAILED, f"mode changed to {state.mode} before arriving"
+            return None
+
+        self.active = Active(command, check)
+
+    def _simple_mode(self, command: Command, mode: str) -> None:
+        self.link.target()
+        if mode in MOVING_MODES:
+            self._ensure_armed()
+        detail = self._mode(mode)
+        self._ack(command, ACKNOWLEDGED, detail)
+        self._ack(command, DONE, detail)
+
+    def _do_hold(self, command: Command, p: dict[str, Any]) -> None:
+        self._simple_mode(command, "HOLD")
+
+    def _do_resume(self, command: Command, p: dict[str, Any]) -> None:
+        self._simple_mode(command, "AUTO")
+
+    def _do_return_home(self, command: Command, p: dict[str, Any]) -> None:
+        self._simple_mode(command, "RTL")
+
+    def _do_set_mode(self, command: Command, p: dict[str, Any]) -> None:
+        self._simple_mode(command, p["mode"])
+
+    def _do_arm(self, command: Command, p: dict[str, Any]) -> None:
+        self.link.target()
+        ok, detail = self.link.arm(self.config.arm_timeout_s, stop=self._stop)
+        if not ok:
+            raise CommandError(detail)
+        self._ack(command, ACKNOWLEDGED, detail)
+        self._ack(command, DONE, detail)
+
+    def _do_disarm(self, command: Command, p: dict[str, Any]) -> None:
+        ok, detail = self.link.disarm()
+        if not ok:
+            raise CommandError(detail)
+        self._ack(command, ACKNOWLEDGED, detail)
+        self._ack(command, DONE, detail)
+
+    def _do_mission(self, command: Command, p: dict[str, Any]) -> None:
+        state = self.link.state
+        self.link.target()
+        # Item 0 is home for ArduPilot; it keeps its own home, so any sane position will do.
+        home = state.home or ((state.lat, state.lon) if state.lat is not None else (0.0, 0.0))
+        items = build_mission(home, p["items"], loop=p["loop"])
+        upload = self.link.upload_mission(items)
+        if not upload.ok:
+            raise CommandError(f"mission upload failed: {upload.error}")
+        self._ack(
+            command,
+            ACKNOWLEDGED,
+            f"{len(p['items'])} waypoints accepted ({result_name(upload.result)})",
+        )
+        self._ensure_armed()
+        state.last_reached = None
+        self.link.set_mission_current(1)
+        self._mode("AUTO")
+        if p["loop"]:
+            self._ack(command, DONE, "looping mission running in AUTO")
+            return
+        last = max(i.seq for i in items if i.command == MAV_CMD_NAV_WAYPOINT)
+        end = p["items"][-1]
+        radius = max(self.config.acceptance_radius_m, end["radius_m"])
+
+        seen = ModeSeen("AUTO")
+
+        def check() -> tuple[str, str] | None:
+            if state.last_reached == last:
+                return DONE, f"mission complete: reached waypoint {last}"
+            if seen.left(state.mode):
+                # MISSION_ITEM_REACHED may have been lost; Rover switches to HOLD at the end.
+                near = state.distance_to(end["lat"], end["lon"])
+                if state.mission_seq == last and near is not None and near <= radius:
+                    return DONE, f"mission complete: {near:.1f} m from the last waypoint"
+                return FAILED, f"mode changed to {state.mode} at item {state.mission_seq}"
+            return None
+
+        self.active = Active(command, check)

@@ -1,0 +1,314 @@
+"""The MAVLink mission protocol as a pure state machine (no I/O, no pymavlink).
+
+References:
+- mavlink.io/en/services/mission.html — upload: MISSION_COUNT → MISSION_REQUEST_INT(seq) /
+  MISSION_ITEM_INT(seq) ... → MISSION_ACK; download: MISSION_REQUEST_LIST → MISSION_COUNT →
+  MISSION_REQUEST_INT / MISSION_ITEM_INT ... → MISSION_ACK. Timeouts 1500 ms (exchange) and
+  250 ms (per item when we request), at most 5 retries.
+- ../shared/formats/mission-files.md — ArduPilot specifics: item 0 is home (prepend on upload,
+  drop on download); Rover asks for items with the older MISSION_REQUEST, which we answer with
+  MISSION_ITEM_INT just the same.
+
+The link layer (:mod:`edge_client.mavlink_link`) feeds received messages as ``(type, fields)``
+and sends what the machine returns as :class:`Out` values; tests drive the machines directly
+with lost, repeated and out-of-order messages.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+# common.xml MAV_CMD / MAV_FRAME / MAV_MISSION_RESULT values.
+MAV_CMD_NAV_WAYPOINT = 16
+MAV_CMD_DO_JUMP = 177
+MAV_FRAME_GLOBAL = 0
+MAV_FRAME_GLOBAL_RELATIVE_ALT = 3
+MAV_MISSION_TYPE_MISSION = 0
+MAV_MISSION_ACCEPTED = 0
+MAV_MISSION_OPERATION_CANCELLED = 15
+
+MISSION_RESULTS = {
+    0: "MAV_MISSION_ACCEPTED",
+    1: "MAV_MISSION_ERROR",
+    2: "MAV_MISSION_UNSUPPORTED_FRAME",
+    3: "MAV_MISSION_UNSUPPORTED",
+    4: "MAV_MISSION_NO_SPACE",
+    5: "MAV_MISSION_INVALID",
+    6: "MAV_MISSION_INVALID_PARAM1",
+    7: "MAV_MISSION_INVALID_PARAM2",
+    8: "MAV_MISSION_INVALID_PARAM3",
+    9: "MAV_MISSION_INVALID_PARAM4",
+    10: "MAV_MISSION_INVALID_PARAM5_X",
+    11: "MAV_MISSION_INVALID_PARAM6_Y",
+    12: "MAV_MISSION_INVALID_PARAM7",
+    13: "MAV_MISSION_INVALID_SEQUENCE",
+    14: "MAV_MISSION_DENIED",
+    15: "MAV_MISSION_OPERATION_CANCELLED",
+}
+
+EXCHANGE_TIMEOUT_S = 1.5  # mission protocol default timeout
+ITEM_TIMEOUT_S = 0.25  # per-item timeout when we are the side requesting items
+MAX_RETRIES = 5
+# ArduPilot DO_JUMP: a repeat count of -1 repeats forever (used for looping missions).
+JUMP_FOREVER = -1
+
+
+def result_name(code: int | None) -> str:
+    if code is None:
+        return "no MISSION_ACK"
+    return MISSION_RESULTS.get(code, f"MAV_MISSION_RESULT {code}")
+
+
+@dataclass(frozen=True)
+class MissionItem:
+    """One MISSION_ITEM_INT: lat/lon (``x``/``y``) in degrees × 1e7."""
+
+    seq: int
+    command: int
+    x: int
+    y: int
+    z: float = 0.0
+    param1: float = 0.0
+    param2: float = 0.0
+    param3: float = 0.0
+    param4: float = 0.0
+    frame: int = MAV_FRAME_GLOBAL_RELATIVE_ALT
+    current: int = 0
+    autocontinue: int = 1
+
+    def same_route(self, other: MissionItem) -> bool:
+        """Equal as a mission (ignores ``current``, which the autopilot sets itself)."""
+        keys = ("seq", "command", "x", "y", "frame", "autocontinue")
+        params = ("param1", "param2", "param3", "param4", "z")
+        return all(getattr(self, k) == getattr(other, k) for k in keys) and all(
+            math.isclose(getattr(self, k), getattr(other, k), abs_tol=1e-4) for k in params
+        )
+
+
+def deg_to_e7(value: float) -> int:
+    return int(round(value * 1e7))
+
+
+def build_mission(
+    home: tuple[float, float], waypoints: list[dict[str, Any]], *, loop: bool = False
+) -> list[MissionItem]:
+    """Mission items for ArduPilot: home as item 0, one NAV_WAYPOINT per waypoint.
+
+    NAV_WAYPOINT params (common.xml): param1 = hold time in seconds, param2 = acceptance radius
+    in metres (0 = the autopilot's WP_RADIUS). ``loop`` appends a DO_JUMP back to item 1 that
+    repeats forever.
+    """
+    items = [
+        MissionItem(
+            seq=0,
+            command=MAV_CMD_NAV_WAYPOINT,
+            x=deg_to_e7(home[0]),
+            y=deg_to_e7(home[1]),
+            frame=MAV_FRAME_GLOBAL,
+        )
+    ]
+    for wp in waypoints:
+        items.append(
+            MissionItem(
+                seq=len(items),
+                command=MAV_CMD_NAV_WAYPOINT,
+                x=deg_to_e7(float(wp["lat"])),
+                y=deg_to_e7(float(wp["lon"])),
+                param1=float(wp.get("hold_s") or 0.0),
+                param2=float(wp.get("radius_m") or 0.0),
+            )
+        )
+    if loop and waypoints:
+        items.append(
+            MissionItem(
+                seq=len(items),
+                command=MAV_CMD_DO_JUMP,
+                x=0,
+                y=0,
+                param1=1.0,
+                param2=float(JUMP_FOREVER),
+                frame=MAV_FRAME_GLOBAL,
+            )
+        )
+    return items
+
+
+@dataclass(frozen=True)
+class Out:
+    """A message to send: ``type`` is the MAVLink message name, ``fields`` its fields."""
+
+    type: str
+    fields: dict[str, Any] = field(default_factory=dict)
+
+
+def item_out(item: MissionItem) -> Out:
+    return Out(
+        "MISSION_ITEM_INT",
+        {
+            "seq": item.seq,
+            "frame": item.frame,
+            "command": item.command,
+            "current": item.current,
+            "autocontinue": item.autocontinue,
+            "param1": item.param1,
+            "param2": item.param2,
+            "param3": item.param3,
+            "param4": item.param4,
+            "x": item.x,
+            "y": item.y,
+            "z": item.z,
+        },
+    )
+
+
+def item_from_fields(msg_type: str, f: dict[str, Any]) -> MissionItem:
+    """MISSION_ITEM_INT (or the deprecated float MISSION_ITEM) → MissionItem."""
+    x, y = f["x"], f["y"]
+    if msg_type == "MISSION_ITEM":
+        x, y = deg_to_e7(x), deg_to_e7(y)
+    return MissionItem(
+        seq=f["seq"],
+        command=f["command"],
+        x=int(x),
+        y=int(y),
+        z=float(f["z"]),
+        param1=float(f["param1"]),
+        param2=float(f["param2"]),
+        param3=float(f["param3"]),
+        param4=float(f["param4"]),
+        frame=f["frame"],
+        current=f["current"],
+        autocontinue=f["autocontinue"],
+    )
+
+
+def _is_mission(f: dict[str, Any]) -> bool:
+    return f.get("mission_type", MAV_MISSION_TYPE_MISSION) == MAV_MISSION_TYPE_MISSION
+
+
+class MissionUpload:
+    """Sender side of an upload.
+
+    1. ``start()`` → MISSION_COUNT.
+    2. Each MISSION_REQUEST_INT or MISSION_REQUEST (seq) → that MISSION_ITEM_INT. A repeated
+       request (our item was lost) is answered again; a request resets the retry count.
+    3. MISSION_ACK ends it: MAV_MISSION_ACCEPTED once every item was requested is success;
+       any other result is a failure carrying the code. An ACCEPTED that arrives before the last
+       item was asked for is stale (an earlier exchange's, or duplicated) and ignored.
+    4. ``poll(now)`` past the deadline re-sends the last message; after ``MAX_RETRIES`` it gives
+       up, telling the autopilot with MISSION_ACK(MAV_MISSION_OPERATION_CANCELLED).
+    """
+
+    def __init__(self, items: list[MissionItem], *, timeout_s: float = EXCHANGE_TIMEOUT_S) -> None:
+        self.items = items
+        self.timeout_s = timeout_s
+        self.done = False
+        self.ok = False
+        self.result: int | None = None
+        self.error = ""
+        self.retries = 0
+        self.deadline = 0.0
+        self._last: list[Out] = []
+        self._requested: set[int] = set()
+
+    def start(self, now: float) -> list[Out]:
+        self._last = [Out("MISSION_COUNT", {"count": len(self.items)})]
+        self.deadline = now + self.timeout_s
+        return self._last
+
+    def handle(self, msg_type: str, f: dict[str, Any], now: float) -> list[Out]:
+        if self.done or not _is_mission(f):
+            return []
+        if msg_type in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
+            seq = f["seq"]
+            if not 0 <= seq < len(self.items):
+                return []  # not ours to answer; the autopilot will time out or ack an error
+            self._requested.add(seq)
+            self.retries = 0
+            self._last = [item_out(self.items[seq])]
+            self.deadline = now + self.timeout_s
+            return self._last
+        if msg_type == "MISSION_ACK":
+            code = f["type"]
+            if code == MAV_MISSION_ACCEPTED:
+                if len(self._requested) < len(self.items):
+                    return []
+                self._finish(True, code, "")
+            else:
+                self._finish(False, code, f"autopilot rejected the mission: {result_name(code)}")
+        return []
+
+    def poll(self, now: float) -> list[Out]:
+        if self.done or now < self.deadline:
+            return []
+        self.retries += 1
+        if self.retries > MAX_RETRIES:
+            self._finish(False, None, f"no answer from the autopilot after {MAX_RETRIES} retries")
+            return [Out("MISSION_ACK", {"type": MAV_MISSION_OPERATION_CANCELLED})]
+        self.deadline = now + self.timeout_s
+        return self._last
+
+    def _finish(self, ok: bool, code: int | None, error: str) -> None:
+        self.done, self.ok, self.result, self.error = True, ok, code, error
+
+
+class MissionDownload:
+    """Requester side of a download (to read a mission back).
+
+    MISSION_REQUEST_LIST → MISSION_COUNT; then MISSION_REQUEST_INT for each seq in turn, each
+    re-sent after ``ITEM_TIMEOUT_S`` up to ``MAX_RETRIES`` times; MISSION_ACK(ACCEPTED) at the
+    end. Items that are not the one asked for (late duplicates) are ignored.
+    """
+
+    def __init__(self) -> None:
+        self.done = False
+        self.ok = False
+        self.error = ""
+        self.items: list[MissionItem] = []
+        self.count: int | None = None
+        self.retries = 0
+        self.deadline = 0.0
+        self._last: list[Out] = []
+
+    def start(self, now: float) -> list[Out]:
+        return self._send([Out("MISSION_REQUEST_LIST")], now, EXCHANGE_TIMEOUT_S)
+
+    def handle(self, msg_type: str, f: dict[str, Any], now: float) -> list[Out]:
+        if self.done or not _is_mission(f):
+            return []
+        if msg_type == "MISSION_COUNT" and self.count is None:
+            self.count = f["count"]
+            return self._next(now)
+        if msg_type in ("MISSION_ITEM_INT", "MISSION_ITEM") and self.count is not None:
+            if f["seq"] != len(self.items):
+                return []
+            self.items.append(item_from_fields(msg_type, f))
+            self.retries = 0
+            return self._next(now)
+        return []
+
+    def poll(self, now: float) -> list[Out]:
+        if self.done or now < self.deadline:
+            return []
+        self.retries += 1
+        if self.retries > MAX_RETRIES:
+            self.done, self.error = True, f"download stalled after {MAX_RETRIES} retries"
+            return []
+        timeout = EXCHANGE_TIMEOUT_S if self.count is None else ITEM_TIMEOUT_S
+        return self._send(self._last, now, timeout)
+
+    def _next(self, now: float) -> list[Out]:
+        assert self.count is not None
+        if len(self.items) == self.count:
+            self.done = self.ok = True
+            return [Out("MISSION_ACK", {"type": MAV_MISSION_ACCEPTED})]
+        return self._send(
+            [Out("MISSION_REQUEST_INT", {"seq": len(self.items)})], now, ITEM_TIMEOUT_S
+        )
+
+    def _send(self, out: list[Out], now: float, timeout: float) -> list[Out]:
+        self._last = out
+        self.deadline = now + timeout
+        return out

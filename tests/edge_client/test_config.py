@@ -1,0 +1,135 @@
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from edge_client.config import ConfigError, load_config
+
+GOOD = """
+[server]
+url = "https://shore.example.org"
+key = "k-123"
+
+[mavlink]
+connection = "udpin:0.0.0.0:14550"
+baud = 115200
+
+[telemetry]
+period_s = 2
+
+[commands]
+poll_period_s = 15
+arm_before_move = false
+
+[outbox]
+path = "/tmp/x.sqlite3"
+max_fixes = 500
+
+[transport]
+kind = "modem"
+
+[transport.modem]
+port = "/dev/ttyUSB1"
+
+[readings.water_temp_c]
+message = "SCALED_PRESSURE2"
+field = "temperature"
+scale = 0.01
+"""
+
+
+def write(tmp_path, text: str):
+    path = tmp_path / "edge.toml"
+    path.write_text(text)
+    return path
+
+
+def test_it_reads_every_table(tmp_path):
+    config = load_config(write(tmp_path, GOOD))
+    assert config.server.url == "https://shore.example.org"
+    assert config.server.key == "k-123"
+    assert config.mavlink.baud == 115200
+    assert config.telemetry.period_s == 2.0
+    assert config.commands.arm_before_move is False
+    assert config.outbox.max_fixes == 500
+    assert config.transport.kind == "modem"
+    assert config.transport.modem.port == "/dev/ttyUSB1"
+    assert config.transport.modem.trigger == "don"
+    (reading,) = config.readings
+    assert (reading.name, reading.message, reading.field, reading.scale) == (
+        "water_temp_c", "SCALED_PRESSURE2", "temperature", 0.01,
+    )  # fmt: skip
+
+
+def test_flags_override_the_file(tmp_path):
+    config = load_config(
+        write(tmp_path, GOOD),
+        {"server": "http://127.0.0.1:8000", "key": "other", "baud": "57600",
+         "telemetry_period": "0.5", "poll_period": None, "transport": "http"},
+    )  # fmt: skip
+    assert config.server.url == "http://127.0.0.1:8000"
+    assert config.server.key == "other"
+    assert config.mavlink.baud == 57600
+    assert config.telemetry.period_s == 0.5
+    assert config.commands.poll_period_s == 15.0
+    assert config.transport.kind == "http"
+
+
+def test_flags_alone_are_enough():
+    config = load_config(None, {"server": "http://h:1", "key": "k", "mavlink": "tcp:h:5760"})
+    assert config.mavlink.connection == "tcp:h:5760"
+    assert config.outbox.path.endswith("outbox.sqlite3")
+
+
+def test_key_comes_from_key_file_or_environment(tmp_path, monkeypatch):
+    key_file = tmp_path / "key"
+    key_file.write_text("from-file\n")
+    text = f'[server]\nurl = "http://h"\nkey_file = "{key_file}"\n'
+    assert load_config(write(tmp_path, text)).server.key == "from-file"
+    monkeypatch.setenv("SHORESIDE_EDGE_KEY", "from-env")
+    assert load_config(None, {"server": "http://h"}).server.key == "from-env"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('[server]\nurl = "http://h"\n', "no vessel key"),
+        ('[server]\nkey = "k"\n', "url is required"),
+        ('[server]\nurl = "ftp://h"\nkey = "k"\n', "not an http:// or https:// URL"),
+        ('[server]\nurl = "http://h"\nkey = "k"\nkee = 1\n', "unknown key 'kee'"),
+        ('[sever]\nurl = "http://h"\n', "unknown setting 'sever'"),
+        ('[server]\nurl = "http://h"\nkey = "k"\n[mavlink]\nbaud = "fast"\n', "whole number"),
+        ('[server]\nurl = "http://h"\nkey = "k"\n[mavlink]\nbaud = true\n', "expected int"),
+        ('[server]\nurl = "http://h"\nkey = "k"\n[telemetry]\nperiod_s = 0\n', "greater than zero"),
+        ('[server]\nurl = "http://h"\nkey = "k"\n[transport]\nkind = "smoke"\n', "not one of"),
+        (
+            '[server]\nurl = "http://h"\nkey = "k"\n[commands]\narm_before_move = "yes"\n',
+            "true or false",
+        ),
+        (
+            '[server]\nurl = "http://h"\nkey = "k"\n[readings.t]\nmessage = "X"\n',
+            "needs both message and field",
+        ),
+        ("[server\n", "not valid TOML"),
+    ],
+)
+def test_bad_configs_say_what_is_wrong(tmp_path, text, message):
+    with pytest.raises(ConfigError, match=message):
+        load_config(write(tmp_path, text))
+
+
+def test_missing_file_is_a_clear_error(tmp_path):
+    with pytest.raises(ConfigError, match="no such file"):
+        load_config(tmp_path / "nope.toml")
+
+
+def test_cli_exits_2_with_the_reason(tmp_path):
+    path = write(tmp_path, '[server]\nurl = "http://h"\n')
+    result = subprocess.run(
+        [sys.executable, "-m", "edge_client", "run", "--config", str(path)],
+        capture_output=True, text=True, timeout=30,
+    )  # fmt: skip
+    assert result.returncode == 2
+    assert "bad configuration" in result.stderr and "no vessel key" in result.stderr

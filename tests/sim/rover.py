@@ -1,0 +1,628 @@
+"""An ArduPilot-Rover-like MAVLink vehicle for tests and demos, on pymavlink.
+
+It behaves like ArduPilot Rover where the edge client depends on it (../shared/formats/
+mission-files.md, mavlink.io common.xml), not like a physics model:
+
+- HEARTBEAT (MAV_TYPE_SURFACE_BOAT, MAV_AUTOPILOT_ARDUPILOTMEGA, SAFETY_ARMED flag, Rover
+  custom mode), GLOBAL_POSITION_INT at the stream rate, SYS_STATUS (battery), MISSION_CURRENT,
+  SYSTEM_TIME, SCALED_PRESSURE (a temperature to map into ``readings``); SET_MESSAGE_INTERVAL
+  and REQUEST_MESSAGE / GET_HOME_POSITION are honoured.
+- Mission protocol in both directions, with MAV_MISSION_RESULT error codes: upload answered by
+  requesting each item with the older MISSION_REQUEST (as a real Rover 4.7 does) or
+  MISSION_REQUEST_INT (``request_int=True``), re-requesting on a 0.5 s timeout and cancelling after
+  8 s; download answered with MISSION_ITEM_INT (item 0 = current home).
+- COMMAND_LONG: DO_SET_MODE (COMMAND_ACK; AUTO refused without a mission), COMPONENT_ARM_DISARM
+  (pre-arm checks fail with a "PreArm:" STATUSTEXT until ``prearm_delay_s`` after start),
+  DO_SET_MISSION_CURRENT; MISSION_SET_CURRENT; SET_POSITION_TARGET_GLOBAL_INT in GUIDED.
+- Motion at ``speed_mps`` toward the GUIDED target, along the mission in AUTO (NAV_WAYPOINT with
+  hold time and acceptance radius, DO_JUMP with repeat counts, MISSION_ITEM_REACHED, HOLD at the
+  end), home in RTL/SMART_RTL; only when armed.
+- Fault injection: ``drop`` / ``dup`` probabilities for messages (drop applies both ways),
+  ``refuse_modes`` (COMMAND_ACK DENIED), ``reject_mission`` (MISSION_ACK with that code after
+  the last item), ``muted`` (stops talking, as a silent autopilot).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import random
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+os.environ.setdefault("MAVLINK20", "1")
+
+from pymavlink import mavutil  # noqa: E402
+
+mavlink = mavutil.mavlink
+
+MODES = {
+    "MANUAL": 0, "ACRO": 1, "STEERING": 3, "HOLD": 4, "LOITER": 5, "FOLLOW": 6, "SIMPLE": 7,
+    "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15, "INITIALISING": 16,
+}  # fmt: skip
+MODE_NAMES = {v: k for k, v in MODES.items()}
+EARTH_RADIUS_M = 6_371_000.0
+UPLOAD_RETRY_S = 0.5
+UPLOAD_GIVE_UP_S = 8.0
+GLOBAL_FRAMES = {0, 3, 5, 6, 10, 11}  # MAV_FRAME_GLOBAL*, incl. the deprecated _INT variants
+NAV_WAYPOINT, NAV_RTL, DO_JUMP = 16, 20, 177
+DEFAULT_WP_RADIUS_M = 2.0  # ArduPilot Rover WP_RADIUS default
+
+
+@dataclass
+class Item:
+    seq: int
+    frame: int
+    command: int
+    current: int
+    autocontinue: int
+    param1: float
+    param2: float
+    param3: float
+    param4: float
+    x: int  # degE7
+    y: int
+    z: float
+
+
+def _bearing_distance(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
+    p1, p2, dl = math.radians(lat1), math.radians(lat2), math.radians(lon2 - lon1)
+    a = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
+    dist = 2 * EARTH_RADIUS_M * math.asin(math.sqrt(min(1.0, a)))
+    y = math.sin(dl) * math.cos(p2)
+    x = math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) * math.cos(dl)
+    return math.degrees(math.atan2(y, x)) % 360, dist
+
+
+class RoverSim:
+    def __init__(
+        self,
+        endpoints: list[str],
+        *,
+        lat: float = -31.9800,
+        lon: float = 115.8200,
+        speed_mps: float = 2.0,
+        rate_hz: float = 4.0,
+        prearm_delay_s: float = 20.0,
+        request_int: bool = False,
+        drop: float = 0.0,
+        dup: float = 0.0,
+        refuse_modes: tuple[str, ...] = (),
+        reject_mission: int | None = None,
+        max_items: int = 700,
+        seed: int | None = None,
+        system: int = 1,
+    ) -> None:
+        self.conns = [
+            mavutil.mavlink_connection(
+                ep, source_system=system, source_component=1, dialect="ardupilotmega"
+            )
+            for ep in endpoints
+        ]
+        self.lat, self.lon = lat, lon
+        self.home = (lat, lon)
+        self.speed = speed_mps
+        self.heading = 0.0
+        self.vn = self.ve = 0.0  # m/s north/east
+        self.mode = MODES["HOLD"]
+        self.armed = False
+        self.target: tuple[float, float] | None = None
+        self.mission: list[Item] = []
+        self.current = 0
+        self.jumps: dict[int, int] = {}
+        self.reached_sent = -1
+        self.hold_until: float | None = None
+        self.battery_v = 12.6
+        self.request_int = request_int
+        self.drop, self.dup = drop, dup
+        self.refuse_modes = {m.upper() for m in refuse_modes}
+        self.reject_mission = reject_mission
+        self.max_items = max_items
+        self.prearm_delay_s = prearm_delay_s
+        self.muted = False
+        self.rng = random.Random(seed)
+        self.boot = time.monotonic()
+        self.intervals = {  # message id → seconds
+            mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 1 / rate_hz,
+            mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
+            mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,
+            mavlink.MAVLINK_MSG_ID_SYSTEM_TIME: 1.0,
+            mavlink.MAVLINK_MSG_ID_SCALED_PRESSURE: 1.0,
+            mavlink.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
+        }
+        self.last_sent: dict[int, float] = {}
+        self.upload: dict[str, Any] | None = None  # in-progress upload
+        self.peers: dict[int, tuple[int, int]] = {}
+        self.counts = {"sent": 0, "dropped": 0, "duplicated": 0, "received": 0}
+        self._last_step = time.monotonic()
+        self._lock = threading.Lock()
+
+    # -- running ------------------------------------------------------------------------------
+
+    def run(self, stop: threading.Event) -> None:
+        while not stop.is_set():
+            self.step()
+            stop.wait(0.005)
+        self.close()
+
+    def close(self) -> None:
+        for conn in self.conns:
+            conn.close()
+
+    def step(self) -> None:
+        with self._lock:
+            now = time.monotonic()
+            for conn in self.conns:
+                while (msg := conn.recv_msg()) is not None:
+                    self._receive(conn, msg, now)
+            self._physics(now - self._last_step, now)
+            self._last_step = now
+            self._upload_timeouts(now)
+            self._streams(now)
+
+    @property
+    def mode_name(self) -> str:
+        return MODE_NAMES.get(self.mode, str(self.mode))
+
+    def boot_ms(self) -> int:
+        return int((time.monotonic() - self.boot) * 1000)
+
+    # -- sending with fault injection ---------------------------------------------------------
+
+    def _emit(self, conn: Any, name: str, *args: Any, **kwargs: Any) -> None:
+        targets = self.conns if conn is None else [conn]
+        if self.muted:
+            return
+        for c in targets:
+            msg = getattr(c.mav, f"{name}_encode")(*args, **kwargs)
+            if self.rng.random() < self.drop:
+                self.counts["dropped"] += 1
+                continue
+            copies = 2 if self.rng.random() < self.dup else 1
+            self.counts["duplicated"] += copies - 1
+            for _ in range(copies):
+                try:
+                    c.mav.send(msg)
+                    self.counts["sent"] += 1
+                except OSError:
+                    pass  # a udpout peer not listening yet, a TCP peer gone: like a radio
+
+    def statustext(self, conn: Any, text: str, severity: int = 4) -> None:
+        self._emit(conn, "statustext", severity, text.encode()[:50])
+
+    # -- streams ------------------------------------------------------------------------------
+
+    def _due(self, msg_id: int, now: float) -> bool:
+        interval = self.intervals.get(msg_id)
+        if interval is None or interval <= 0:
+            return False
+        if now - self.last_sent.get(msg_id, -1e9) >= interval:
+            self.last_sent[msg_id] = now
+            return True
+        return False
+
+    def _streams(self, now: float) -> None:
+        if self._due(mavlink.MAVLINK_MSG_ID_HEARTBEAT, now):
+            base = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (
+                mavlink.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0
+            )
+            state = mavlink.MAV_STATE_ACTIVE if self.armed else mavlink.MAV_STATE_STANDBY
+            self._emit(
+                None,
+                "heartbeat",
+                mavlink.MAV_TYPE_SURFACE_BOAT,
+                mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                base,
+                self.mode,
+                state,
+            )
+            self.battery_v -= 0.0005
+        if self._due(mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, now):
+            self._emit(
+                None,
+                "global_position_int",
+                self.boot_ms(),
+                int(self.lat * 1e7),
+                int(self.lon * 1e7),
+                0,
+                0,
+                int(self.vn * 100),
+                int(self.ve * 100),
+                0,
+                int(self.heading * 100) % 36000,
+            )
+        if self._due(mavlink.MAVLINK_MSG_ID_SYS_STATUS, now):
+            self._emit(
+                None,
+                "sys_status",
+                0,
+                0,
+                0,
+                100,
+                int(self.battery_v * 1000),
+                150,
+                80,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+            )
+        if self._due(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, now):
+            self._emit(None, "mission_current", self.current, max(0, len(self.mission) - 1))
+        if self._due(mavlink.MAVLINK_MSG_ID_SYSTEM_TIME, now):
+            self._emit(None, "system_time", int(time.time() * 1e6), self.boot_ms())
+        if self._due(mavlink.MAVLINK_MSG_ID_SCALED_PRESSURE, now):
+            self._emit(None, "scaled_pressure", self.boot_ms(), 1013.25, 0.0, 1850)
+
+    def _send_home(self, conn: Any) -> None:
+        self._emit(
+            conn,
+            "home_position",
+            int(self.home[0] * 1e7),
+            int(self.home[1] * 1e7),
+            0,
+            0,
+            0,
+            0,
+            [1, 0, 0, 0],
+            0,
+            0,
+            0,
+        )
+
+    # -- motion -------------------------------------------------------------------------------
+
+    def _drive_to(self, lat: float, lon: float, dt: float) -> float:
+        """Move toward (lat, lon) for dt seconds; returns the distance left."""
+        bearing, dist = _bearing_distance(self.lat, self.lon, lat, lon)
+        step = self.speed * dt
+        if dist < 0.01:
+            self.vn = self.ve = 0.0
+            return dist
+        self.heading = bearing
+        if step >= dist:
+            self.lat, self.lon = lat, lon
+            self.vn = self.ve = 0.0
+            return 0.0
+        b = math.radians(bearing)
+        self.lat += math.degrees(step * math.cos(b) / EARTH_RADIUS_M)
+        self.lon += math.degrees(
+            step * math.sin(b) / (EARTH_RADIUS_M * math.cos(math.radians(self.lat)))
+        )
+        self.vn, self.ve = self.speed * math.cos(b), self.speed * math.sin(b)
+        return dist - step
+
+    def _physics(self, dt: float, now: float) -> None:
+        name = self.mode_name
+        if not self.armed or dt <= 0:
+            self.vn = self.ve = 0.0
+            return
+        if name == "GUIDED" and self.target:
+            self._drive_to(*self.target, dt)
+        elif name == "AUTO":
+            self._auto(dt, now)
+        elif name in ("RTL", "SMART_RTL"):
+            self._drive_to(*self.home, dt)
+        else:
+            self.vn = self.ve = 0.0
+
+    def _auto(self, dt: float, now: float) -> None:
+        for _ in range(len(self.mission) + 1):  # follow DO_JUMPs without looping forever
+            if self.current >= len(self.mission):
+                self.mode = MODES["HOLD"]  # Rover's default behaviour at the end of a mission
+                self.statustext(None, "Mission Complete", 6)
+                self.vn = self.ve = 0.0
+                return
+            item = self.mission[self.current]
+            if item.command == DO_JUMP:
+                done = self.jumps.get(item.seq, 0)
+                if item.param2 < 0 or done < item.param2:
+                    self.jumps[item.seq] = done + 1
+                    self.current = int(item.param1)
+                    self.reached_sent = -1
+                else:
+                    self.current += 1
+                continue
+            if item.command not in (NAV_WAYPOINT, NAV_RTL):
+                self.current += 1
+                continue
+            break
+        if item.command == NAV_RTL:
+            self.mode = MODES["RTL"]
+            return
+        if self.hold_until is not None:
+            self.vn = self.ve = 0.0
+            if now >= self.hold_until:
+                self.hold_until = None
+                self.current += 1
+            return
+        lat, lon = item.x / 1e7, item.y / 1e7
+        left = self._drive_to(lat, lon, dt)
+        radius = item.param2 if item.param2 > 0 else DEFAULT_WP_RADIUS_M
+        if left <= radius and self.reached_sent != item.seq:
+            self.reached_sent = item.seq
+            self._emit(None, "mission_item_reached", item.seq)
+            self.hold_until = now + item.param1 if item.param1 > 0 else None
+            if self.hold_until is None:
+                self.current += 1
+
+    # -- receiving ----------------------------------------------------------------------------
+
+    def _receive(self, conn: Any, msg: Any, now: float) -> None:
+        kind = msg.get_type()
+        if kind == "BAD_DATA":
+            return
+        if self.rng.random() < self.drop:
+            self.counts["dropped"] += 1
+            return
+        self.counts["received"] += 1
+        self.peers[id(conn)] = (msg.get_srcSystem(), msg.get_srcComponent())
+        handler = getattr(self, f"_on_{kind.lower()}", None)
+        if handler is not None:
+            handler(conn, msg, now)
+
+    def _peer(self, conn: Any) -> tuple[int, int]:
+        """(system, component) of whoever last talked to us on ``conn``: replies target it."""
+        return self.peers.get(id(conn), (255, 190))
+
+    def _ack(self, conn: Any, command: int, result: int) -> None:
+        self._emit(conn, "command_ack", command, result, 0, 0, *self._peer(conn))
+
+    def _on_command_long(self, conn: Any, msg: Any, now: float) -> None:
+        c = msg.command
+        if c == mavlink.MAV_CMD_DO_SET_MODE:
+            self._ack(conn, c, self._set_mode(conn, int(msg.param2)))
+        elif c == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
+            self._ack(conn, c, self._arm(conn, msg.param1 >= 0.5, now))
+        elif c == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
+            msg_id, interval_us = int(msg.param1), msg.param2
+            if interval_us < 0:
+                self.intervals[msg_id] = 0
+            elif interval_us > 0:
+                self.intervals[msg_id] = interval_us / 1e6
+            self._ack(conn, c, mavlink.MAV_RESULT_ACCEPTED)
+        elif c in (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_CMD_GET_HOME_POSITION):
+            wanted = int(msg.param1) if c == mavlink.MAV_CMD_REQUEST_MESSAGE else 242
+            ok = wanted == mavlink.MAVLINK_MSG_ID_HOME_POSITION
+            self._ack(
+                conn, c, mavlink.MAV_RESULT_ACCEPTED if ok else mavlink.MAV_RESULT_UNSUPPORTED
+            )
+            if ok:
+                self._send_home(conn)
+        elif c == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT:
+            ok = 0 <= int(msg.param1) < len(self.mission)
+            if ok:
+                self._set_current(int(msg.param1))
+            self._ack(conn, c, mavlink.MAV_RESULT_ACCEPTED if ok else mavlink.MAV_RESULT_DENIED)
+        else:
+            self._ack(conn, c, mavlink.MAV_RESULT_UNSUPPORTED)
+
+    def _on_set_mode(self, conn: Any, msg: Any, now: float) -> None:
+        self._set_mode(conn, msg.custom_mode)  # SET_MODE has no ack of its own
+
+    def _set_mode(self, conn: Any, number: int) -> int:
+        name = MODE_NAMES.get(number)
+        if name is None:
+            return mavlink.MAV_RESULT_FAILED
+        if name in self.refuse_modes:
+            self.statustext(conn, f"Mode change to {name} refused")
+            return mavlink.MAV_RESULT_DENIED
+        if name == "AUTO" and len(self.mission) <= 1:
+            self.statustext(conn, "AutoMode: no mission")
+            return mavlink.MAV_RESULT_FAILED
+        if name == "AUTO" and self.current == 0:
+            self.current = 1
+        if name == "GUIDED":
+            self.target = None  # Rover holds position until given a target
+        self.mode = number
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def _arm(self, conn: Any, arm: bool, now: float) -> int:
+        if not arm:
+            self.armed = False
+            return mavlink.MAV_RESULT_ACCEPTED
+        if now - self.boot < self.prearm_delay_s:
+            self.statustext(conn, "PreArm: Waiting for position estimate", 3)
+            return mavlink.MAV_RESULT_FAILED
+        self.armed = True
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def _on_set_position_target_global_int(self, conn: Any, msg: Any, now: float) -> None:
+        position_ignored = msg.type_mask & 0b111 == 0b111
+        if self.mode_name == "GUIDED" and not position_ignored:
+            self.target = (msg.lat_int / 1e7, msg.lon_int / 1e7)
+
+    def _on_mission_set_current(self, conn: Any, msg: Any, now: float) -> None:
+        if 0 <= msg.seq < len(self.mission):
+            self._set_current(msg.seq)
+
+    def _set_current(self, seq: int) -> None:
+        self.current, self.reached_sent, self.hold_until = seq, -1, None
+        self._emit(None, "mission_current", seq, max(0, len(self.mission) - 1))
+
+    def _on_mission_clear_all(self, conn: Any, msg: Any, now: float) -> None:
+        self.mission, self.current = [], 0
+        self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
+
+    def _mission_ack(self, conn: Any, code: int) -> None:
+        self._emit(conn, "mission_ack", *self._peer(conn), code)
+
+    # Upload: GCS → vehicle ---------------------------------------------------------------------
+
+    def _on_mission_count(self, conn: Any, msg: Any, now: float) -> None:
+        if getattr(msg, "mission_type", 0) != 0:
+            self._mission_ack(conn, mavlink.MAV_MISSION_UNSUPPORTED)
+            return
+        if msg.count > self.max_items:
+            self._mission_ack(conn, mavlink.MAV_MISSION_NO_SPACE)
+            return
+        if msg.count == 0:
+            self.mission, self.current = [], 0
+            self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
+            return
+        self.upload = {"conn": conn, "count": msg.count, "items": [], "started": now}
+        self._request_next(now)
+
+    def _request_next(self, now: float) -> None:
+        up = self.upload
+        assert up is not None
+        up["asked_at"] = now
+        seq = len(up["items"])
+        name = "mission_request_int" if self.request_int else "mission_request"
+        self._emit(up["conn"], name, *self._peer(up["conn"]), seq)
+
+    def _upload_timeouts(self, now: float) -> None:
+        up = self.upload
+        if up is None:
+            return
+        if now - up["started"] > UPLOAD_GIVE_UP_S:
+            self.upload = None
+            self._mission_ack(up["conn"], mavlink.MAV_MISSION_OPERATION_CANCELLED)
+        elif now - up["asked_at"] > UPLOAD_RETRY_S:
+            self._request_next(now)
+
+    def _on_mission_item_int(self, conn: Any, msg: Any, now: float) -> None:
+        self._item_received(conn, msg, int(msg.x), int(msg.y), now)
+
+    def _on_mission_item(self, conn: Any, msg: Any, now: float) -> None:
+        if msg.current == 2:  # "guided mode" waypoint: a target for GUIDED only
+            ok = self.mode_name == "GUIDED"
+            if ok:
+                self.target = (msg.x, msg.y)
+            self._mission_ack(
+                conn, mavlink.MAV_MISSION_ACCEPTED if ok else mavlink.MAV_MISSION_ERROR
+            )
+            return
+        self._item_received(conn, msg, int(round(msg.x * 1e7)), int(round(msg.y * 1e7)), now)
+
+    def _item_received(self, conn: Any, msg: Any, x: int, y: int, now: float) -> None:
+        if msg.current == 2 and msg.get_type() == "MISSION_ITEM_INT":
+            ok = self.mode_name == "GUIDED"
+            if ok:
+                self.target = (x / 1e7, y / 1e7)
+            self._mission_ack(
+                conn, mavlink.MAV_MISSION_ACCEPTED if ok else mavlink.MAV_MISSION_ERROR
+            )
+            return
+        up = self.upload
+        if up is None or up["conn"] is not conn:
+            return
+        if msg.seq != len(up["items"]):
+            self._request_next(now)  # a late duplicate or a skipped item: ask for the one we need
+            return
+        if msg.frame not in GLOBAL_FRAMES and msg.command in (NAV_WAYPOINT,):
+            self.upload = None
+            self._mission_ack(conn, mavlink.MAV_MISSION_UNSUPPORTED_FRAME)
+            return
+        if msg.command == NAV_WAYPOINT and not -90e7 <= x <= 90e7:
+            self.upload = None
+            self._mission_ack(conn, mavlink.MAV_MISSION_INVALID_PARAM5_X)
+            return
+        if msg.command == NAV_WAYPOINT and not -180e7 <= y <= 180e7:
+            self.upload = None
+            self._mission_ack(conn, mavlink.MAV_MISSION_INVALID_PARAM6_Y)
+            return
+        up["items"].append(
+            Item(
+                msg.seq,
+                msg.frame,
+                msg.command,
+                0,
+                msg.autocontinue,
+                msg.param1,
+                msg.param2,
+                msg.param3,
+                msg.param4,
+                x,
+                y,
+                msg.z,
+            )
+        )
+        if len(up["items"]) < up["count"]:
+            self._request_next(now)
+            return
+        self.upload = None
+        if self.reject_mission is not None:
+            self._mission_ack(conn, self.reject_mission)
+            return
+        self.mission, self.current, self.jumps = up["items"], 0, {}
+        self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
+
+    # Download: vehicle → GCS -----------------------------------------------------------------
+
+    def _mission_for_download(self) -> list[Item]:
+        home = Item(
+            0,
+            0,
+            NAV_WAYPOINT,
+            0,
+            1,
+            0,
+            0,
+            0,
+            0,
+            int(self.home[0] * 1e7),
+            int(self.home[1] * 1e7),
+            0,
+        )
+        return [home, *self.mission[1:]]
+
+    def _on_mission_request_list(self, conn: Any, msg: Any, now: float) -> None:
+        if getattr(msg, "mission_type", 0) != 0:
+            self._emit(conn, "mission_count", *self._peer(conn), 0, msg.mission_type)
+            return
+        self._emit(conn, "mission_count", *self._peer(conn), len(self._mission_for_download()))
+
+    def _on_mission_request_int(self, conn: Any, msg: Any, now: float) -> None:
+        self._send_item(conn, msg.seq, as_int=True)
+
+    def _on_mission_request(self, conn: Any, msg: Any, now: float) -> None:
+        self._send_item(conn, msg.seq, as_int=False)
+
+    def _send_item(self, conn: Any, seq: int, *, as_int: bool) -> None:
+        items = self._mission_for_download()
+        if not 0 <= seq < len(items):
+            self._mission_ack(conn, mavlink.MAV_MISSION_INVALID_SEQUENCE)
+            return
+        it = items[seq]
+        current = 1 if seq == self.current else 0
+        if as_int:
+            self._emit(
+                conn,
+                "mission_item_int",
+                *self._peer(conn),
+                it.seq,
+                it.frame,
+                it.command,
+                current,
+                it.autocontinue,
+                it.param1,
+                it.param2,
+                it.param3,
+                it.param4,
+                it.x,
+                it.y,
+                it.z,
+            )
+        else:
+            self._emit(
+                conn,
+                "mission_item",
+                *self._peer(conn),
+                it.seq,
+                it.frame,
+                it.command,
+                current,
+                it.autocontinue,
+                it.param1,
+                it.param2,
+                it.param3,
+                it.param4,
+                it.x / 1e7,
+                it.y / 1e7,
+                it.z,
+            )
