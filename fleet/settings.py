@@ -88,7 +88,9 @@ def _sqlite(path: Path) -> dict[str, object]:
                 "PRAGMA foreign_keys=ON;"
             ),
         },
-        "TEST": {"NAME": path.with_name("test_" + path.name)},
+        # A file (not :memory:) so live-server and concurrency tests see real SQLite locking;
+        # per process, so two test runs on one machine never share it.
+        "TEST": {"NAME": path.with_name(f"test_{os.getpid()}_{path.name}")},
     }
 
 
@@ -150,6 +152,8 @@ INSTALLED_APPS = [
 MIDDLEWARE = [
     "fleet.middleware.BoatApiSlimMiddleware",
     "django.middleware.security.SecurityMiddleware",
+    # Serves the vendored front-end assets (Leaflet, Swagger UI) itself: no CDN, no internet.
+    "whitenoise.middleware.WhiteNoiseMiddleware",
     "django.contrib.sessions.middleware.SessionMiddleware",
     "django.middleware.common.CommonMiddleware",
     "django.middleware.csrf.CsrfViewMiddleware",
@@ -197,6 +201,13 @@ USE_TZ = True
 
 STATIC_URL = "static/"
 STATIC_ROOT = Path(os.environ.get("STATIC_ROOT", DATA_DIR / "static"))
+STATIC_ROOT.mkdir(parents=True, exist_ok=True)  # WhiteNoise expects it even before collectstatic
+STORAGES = {
+    "default": {"BACKEND": "django.core.files.storage.FileSystemStorage"},
+    "staticfiles": {"BACKEND": "whitenoise.storage.CompressedStaticFilesStorage"},
+}
+# Without collectstatic (tests, a quick runserver) serve straight from the apps' folders.
+WHITENOISE_USE_FINDERS = env_bool("WHITENOISE_USE_FINDERS", True)
 LOGIN_URL = "admin:login"
 
 # Production transport security; DEBUG/local development keeps plain HTTP usable.

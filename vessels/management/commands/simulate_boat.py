@@ -73,9 +73,12 @@ class Command(BaseCommand):
         self.active: dict[str, tuple[str, dict[str, Any]]] = {}
         self.pending_acks: deque[tuple[str, str, str]] = deque()
         self.stopping = False
-        signal.signal(signal.SIGTERM, self._stop)
-        signal.signal(signal.SIGINT, self._stop)
-        self.run(opts)
+        previous = {sig: signal.signal(sig, self._stop) for sig in (signal.SIGTERM, signal.SIGINT)}
+        try:
+            self.run(opts)
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
 
     def _stop(self, signum: int, frame: Any) -> None:
         self.stopping = True
