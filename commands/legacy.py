@@ -58,9 +58,18 @@ class LegacyDataView(LegacyView):
     def post(self, request: Request) -> Response:
         data = request.data
         records = [data] if isinstance(data, dict) else data
-        if not isinstance(records, list) or len(records) > settings.FIX_MAX_BATCH:
+        if not isinstance(records, list):
             return Response(
                 telem_ack(False, "expected a JSON object or a list of objects"),
+                status=status.HTTP_400_BAD_REQUEST,
+            )
+        if len(records) > settings.FIX_MAX_BATCH:
+            # Say which limit, or the old client's operator chases a shape problem.
+            return Response(
+                telem_ack(
+                    False,
+                    f"at most {settings.FIX_MAX_BATCH} records per request (got {len(records)})",
+                ),
                 status=status.HTTP_400_BAD_REQUEST,
             )
         result = fix_ingest(vessel=request.user.vessel, records=records, legacy=True)
