@@ -337,7 +337,7 @@ class PayloadMachine:
         if not self._for_us(frame, route):
             return self._ignore(frame, f"addressed to {frame.dest}")
         key = (frame.src, frame.type_word, frame.tid, frame.body)
-        cached = self._replies.get(key)
+        cached = self._replies.get(key) if frame.msg_type != MessageType.ENUMERATE else None
         if cached is not None:
             return list(cached)
         try:
@@ -364,6 +364,9 @@ class PayloadMachine:
     # -- handlers --------------------------------------------------------------------------------
 
     def _on_enumerate(self, frame: Frame) -> list[Frame]:
+        # A (re)started C&C may restart its tid counter: earlier answers must not be replayed.
+        # (Enumerate itself bypasses the retry cache in handle(); its answer never changes.)
+        self._replies.clear()
         self.enumerated = True
         self._notes.append(Enumerated(frame.src))
         body = bytes(EnumerationReply((self._device,)))

@@ -203,6 +203,17 @@ def test_a_retried_request_is_answered_identically_and_hands_over_once() -> None
     assert [(n.ident, n.tid) for n in handovers] == [("cmd-1", 0x1A), ("cmd-2", 0x1B)]
 
 
+def test_a_new_enumeration_forgets_earlier_answers() -> None:
+    pib = machine()
+    enumerate_ = request(MessageType.ENUMERATE, h("01 00 01 00"), 0x17, dest=BROADCAST)
+    pib.handle(enumerate_)
+    first = pib.handle(status(0x18))
+    pib.handle(enumerate_)  # the C&C rebooted: same first tid, same bytes
+    pib.source.add("hold")  # type: ignore[attr-defined]
+    # a rebooted C&C counting from the same tid again gets a fresh answer
+    assert pib.handle(status(0x18)) != first
+
+
 def test_a_retried_status_request_keeps_its_first_answer() -> None:
     pib = machine()
     first = pib.handle(status(0x40))
