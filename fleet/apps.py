@@ -5,7 +5,13 @@ from importlib import import_module
 from django.apps import AppConfig
 
 # Apps whose admin.py registers models (see the SimpleAdminConfig note in settings).
-ADMIN_APPS = ("vessels", "telemetry", "commands")
+ADMIN_APPS = (
+    "django.contrib.auth",  # users and groups (operators)
+    "rest_framework.authtoken",  # operators' personal API tokens
+    "vessels",
+    "telemetry",
+    "commands",
+)
 
 
 class FleetConfig(AppConfig):

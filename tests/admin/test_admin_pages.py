@@ -181,3 +181,10 @@ def test_an_operator_without_permission_cannot_queue(client: Client, readonly_us
                                                      vessel_a: Vessel) -> None:
     client.force_login(readonly_user)
     assert client.get("/admin/commands/command/add/").status_code == 403
+
+
+@pytest.mark.parametrize("url", ["/admin/auth/user/", "/admin/auth/group/",
+                                 "/admin/authtoken/tokenproxy/"])
+def test_operators_and_their_api_tokens_are_managed_in_the_admin(admin_ui: Client,
+                                                                 url: str) -> None:
+    assert admin_ui.get(url).status_code == 200
