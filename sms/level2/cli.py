@@ -14,10 +14,13 @@ from __future__ import annotations
 
 import argparse
 import re
+import signal
 import sys
 import threading
 from collections.abc import Sequence
 from typing import TextIO
+
+import serial
 
 from .bodies import ExtraInfo, summarize
 from .cfa import read_cfa
@@ -149,8 +152,15 @@ def _payload(args: argparse.Namespace, out: TextIO) -> int:
     runner = PayloadRunner(url, machine, trace=lambda line: print(line, file=out, flush=True))
     runner.port_factory = factory
     if args.duration is not None:
-        threading.Timer(args.duration, runner.stop).start()
-    runner.run()
+        timer = threading.Timer(args.duration, runner.stop)
+        timer.daemon = True
+        timer.start()
+    # SIGTERM only sets the stop flag, so the results below are still printed.
+    previous = signal.signal(signal.SIGTERM, lambda _sig, _frame: runner.stop())
+    try:
+        runner.run()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     for ident, result in source.results.items():
         print(f"result {ident}: code={result.code} ({result.meaning})", file=out)
     return 0
@@ -175,6 +185,9 @@ def _cc(args: argparse.Namespace, out: TextIO) -> int:
     )
     try:
         sim.run(args.duration)
+    except (serial.SerialException, OSError) as exc:
+        print(f"port {args.port} failed: {exc}", file=out)
+        return 1
     finally:
         print(f"summary: {sim.stats.summary()}", file=out)
         port.close()

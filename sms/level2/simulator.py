@@ -53,6 +53,9 @@ RETRY_INTERVAL_S = 2.0  # §10: resend after ~1.9–2.0 s
 ATTEMPTS = 3  # §10: three attempts in all
 QUEUED_DELAY_S = 0.4  # §9: request queued ~0.43 s after a flagged status reply
 QUEUED_GAP_S = 0.25  # §9: next request queued ~0.23–0.24 s after a 0x8040 reply
+# Watching for a reply that must not come: the real PIB answered within 17 ms (§2), so a wrong
+# answer would show up well inside this window.
+SILENCE_WAIT_S = 0.2
 FIRST_TID = 0x0017  # §9: the capture's enumerate tid
 UNKNOWN_TYPE = 0x0077  # not in §7: the payload must ignore it
 FF_RUN_MAX = 256  # §2: the real line carried long 0xFF bursts; a few hundred bytes suffice here
@@ -132,7 +135,7 @@ class SimConfig:
     queued_delay_s: float = QUEUED_DELAY_S
     queued_gap_s: float = QUEUED_GAP_S
     reply_wait_s: float = RETRY_INTERVAL_S  # real seconds to wait for a reply that must come
-    silence_wait_s: float = RETRY_INTERVAL_S  # real seconds to watch for a reply that must not
+    silence_wait_s: float = SILENCE_WAIT_S  # real seconds to watch for a reply that must not
     position: tuple[float, float] | None = (36.803, -121.788)  # Moss Landing (§8.3), or None
     ack_policy: Callable[[int, CommandPacket | None], int] = ack_all
     send_results: bool | None = None  # None: only if the payload asked (flag 0x08, §8.6)
