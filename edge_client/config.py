@@ -81,7 +81,6 @@ class CommandsConfig:
     poll_period_s: float = 10.0
     arm_before_move: bool = True
     arm_timeout_s: float = 60.0
-    mode_timeout_s: float = 3.0
     acceptance_radius_m: float = 10.0
 
 
@@ -321,7 +320,6 @@ def _check(config: Config, source: str) -> None:
         "[telemetry] batch_size": config.telemetry.batch_size,
         "[commands] poll_period_s": config.commands.poll_period_s,
         "[commands] arm_timeout_s": config.commands.arm_timeout_s,
-        "[commands] mode_timeout_s": config.commands.mode_timeout_s,
         "[commands] acceptance_radius_m": config.commands.acceptance_radius_m,
         "[outbox] max_fixes": config.outbox.max_fixes,
         "[transport] timeout_s": config.transport.timeout_s,

@@ -274,7 +274,7 @@ class Executor:
             self.on_ack()
 
     def _mode(self, name: str) -> str:
-        ok, detail = self.link.set_mode(name, timeout=self.config.mode_timeout_s)
+        ok, detail = self.link.set_mode(name)
         if not ok:
             raise CommandError(detail)
         return detail

@@ -310,7 +310,7 @@ class MavlinkLink:
                     return msg.result
         return None
 
-    def set_mode(self, name: str, timeout: float = 3.0) -> tuple[bool, str]:
+    def set_mode(self, name: str) -> tuple[bool, str]:
         """MAV_CMD_DO_SET_MODE with the Rover custom mode; True once the autopilot accepts it."""
         number = ROVER_MODES[name]
         result = self.command_long(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
@@ -318,12 +318,9 @@ class MavlinkLink:
             return False, f"no COMMAND_ACK for mode {name}"
         if result != MAV_RESULT_ACCEPTED:
             return False, f"autopilot refused mode {name}: {MAV_RESULTS.get(result, result)}"
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:  # confirmation from the next HEARTBEAT
-            if self.state.custom_mode == number:
-                return True, f"mode {name}"
-            time.sleep(0.05)
-        return True, f"mode {name} accepted (not yet seen in HEARTBEAT)"
+        # ArduPilot acks only after the mode changed; the next HEARTBEAT (≤ 1 s) will agree.
+        self.state.custom_mode = number
+        return True, f"mode {name}"
 
     def arm(self, timeout: float, stop: threading.Event | None = None) -> tuple[bool, str]:
         """Arm, retrying while pre-arm checks fail, until ``timeout`` (ArduPilot's checks can
@@ -333,9 +330,7 @@ class MavlinkLink:
         while True:
             result = self.command_long(MAV_CMD_COMPONENT_ARM_DISARM, 1)
             if result == MAV_RESULT_ACCEPTED:
-                until = time.monotonic() + 3.0
-                while time.monotonic() < until and not self.state.armed:
-                    time.sleep(0.05)
+                self.state.armed = True  # acked after arming; HEARTBEAT confirms within 1 s
                 return True, "armed"
             prearm = [t for t in self.state.statustext if "arm" in t.lower()]
             last = prearm[-1] if prearm else f"arming {MAV_RESULTS.get(result, 'not acked')}"
@@ -346,6 +341,7 @@ class MavlinkLink:
     def disarm(self) -> tuple[bool, str]:
         result = self.command_long(MAV_CMD_COMPONENT_ARM_DISARM, 0)
         if result == MAV_RESULT_ACCEPTED:
+            self.state.armed = False
             return True, "disarmed"
         return False, f"disarm refused: {MAV_RESULTS.get(result, 'no COMMAND_ACK')}"
 

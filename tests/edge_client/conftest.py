@@ -13,7 +13,7 @@ from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Outbox
 from tests.sim import RoverSim
 
-FAST_SIM = {"speed_mps": 40.0, "rate_hz": 10.0, "prearm_delay_s": 0.5}
+FAST_SIM = {"speed_mps": 100.0, "rate_hz": 10.0, "prearm_delay_s": 0.5}
 
 
 def free_port(kind: int = socket.SOCK_DGRAM) -> int:
@@ -77,4 +77,4 @@ def outbox(tmp_path) -> Iterator[Outbox]:
 
 @pytest.fixture
 def commands_config() -> CommandsConfig:
-    return CommandsConfig(arm_timeout_s=5.0, mode_timeout_s=2.0, acceptance_radius_m=5.0)
+    return CommandsConfig(arm_timeout_s=5.0, acceptance_radius_m=5.0)

@@ -360,6 +360,8 @@ class RoverSim:
             self.counts["dropped"] += 1
             return
         self.counts["received"] += 1
+        if id(conn) not in self.peers:  # a new peer: greet it now rather than within 1 s
+            self.last_sent.pop(mavlink.MAVLINK_MSG_ID_HEARTBEAT, None)
         self.peers[id(conn)] = (msg.get_srcSystem(), msg.get_srcComponent())
         handler = getattr(self, f"_on_{kind.lower()}", None)
         if handler is not None:

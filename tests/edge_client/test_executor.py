@@ -1,0 +1,254 @@
+"""The executor against the simulated Rover over real MAVLink (UDP on localhost)."""
+
+from __future__ import annotations
+
+import time
+import uuid
+
+import pytest
+
+from edge_client.config import CommandsConfig, MavlinkConfig
+from edge_client.executor import Command, CommandError, Executor, validate
+from edge_client.mavlink_link import MavlinkLink
+from edge_client.outbox import Outbox
+
+START = (-31.98, 115.82)
+NEAR = (-31.979, 115.8205)  # ~120 m from START
+
+
+def cmd(kind: str, **params) -> Command:
+    return Command(uid=str(uuid.uuid4()), kind=kind, params=params)
+
+
+def acks(outbox: Outbox, uid: str) -> list[tuple[str, str]]:
+    return [(a.body["status"], a.body["detail"]) for a in outbox.peek("ack", 100)
+            if a.body["uid"] == uid]  # fmt: skip
+
+
+def statuses(outbox: Outbox, uid: str) -> list[str]:
+    return [s for s, _ in acks(outbox, uid)]
+
+
+def run_until_settled(executor: Executor, timeout: float = 15.0) -> None:
+    deadline = time.monotonic() + timeout
+    while executor.active is not None and time.monotonic() < deadline:
+        executor.watch()
+        time.sleep(0.05)
+    assert executor.active is None, "command did not finish in time"
+
+
+# -- pure validation ------------------------------------------------------------------------------
+
+
+def test_validate_normalises_good_params():
+    assert validate("move_to", {"lat": -31.9, "lon": 115}) == {"lat": -31.9, "lon": 115.0}
+    assert validate("set_mode", {"mode": "guided"}) == {"mode": "GUIDED"}
+    mission = validate("mission", {"items": [{"lat": 1, "lon": 2}], "loop": True})
+    assert mission["items"] == [{"lat": 1.0, "lon": 2.0, "hold_s": 0.0, "radius_m": 0.0}]
+
+
+@pytest.mark.parametrize(
+    ("kind", "params", "message"),
+    [
+        ("move_to", {"lat": 91, "lon": 0}, "outside"),
+        ("move_to", {"lat": "x", "lon": 0}, "must be a number"),
+        ("move_to", {"lat": True, "lon": 0}, "must be a number"),
+        ("set_mode", {"mode": "WARP"}, "unknown Rover mode"),
+        ("mission", {"items": []}, "no items"),
+        ("mission", {"items": [{"lat": 0, "lon": 200}]}, "item 0: lon"),
+        ("launch_torpedo", {}, "unknown command kind"),
+    ],
+)
+def test_validate_refuses_bad_params_with_a_reason(kind, params, message):
+    with pytest.raises(CommandError, match=message):
+        validate(kind, params)
+
+
+# -- dedupe ---------------------------------------------------------------------------------------
+
+
+def raw(uid: str, kind: str = "hold") -> dict:
+    return {"uid": uid, "kind": kind, "params": {}, "created_at": "2026-01-01T00:00:00Z",
+            "expires_at": None}  # fmt: skip
+
+
+def test_a_command_offered_many_times_is_queued_once(tmp_path, commands_config):
+    box = Outbox(tmp_path / "o.sqlite3")
+    link = MavlinkLink(MavlinkConfig(connection="udpout:127.0.0.1:9"))
+    executor = Executor(link, box, commands_config)
+    assert executor.offer([raw("a"), raw("b")]) == 2
+    assert executor.offer([raw("a"), raw("b"), raw("a")]) == 0
+    assert executor.offer([raw("c"), {"kind": "hold"}]) == 1  # one without a uid is skipped
+    box.close()
+    # After a restart the same uids are still known: the thesis' client re-ran them on every poll.
+    box = Outbox(tmp_path / "o.sqlite3")
+    executor = Executor(link, box, commands_config)
+    assert executor.offer([raw("a"), raw("b"), raw("c"), raw("d")]) == 1
+    box.close()
+
+
+def test_commands_interrupted_by_a_restart_are_failed_with_the_reason(outbox, commands_config):
+    outbox.command_claim("u1", "move_to")
+    link = MavlinkLink(MavlinkConfig(connection="udpout:127.0.0.1:9"))
+    Executor(link, outbox, commands_config).recover()
+    assert acks(outbox, "u1") == [("failed", "edge client restarted while the command was running")]
+    assert outbox.commands_interrupted() == []
+
+
+def test_without_an_autopilot_a_command_fails_with_the_reason(outbox, commands_config):
+    link = MavlinkLink(MavlinkConfig(connection="udpout:127.0.0.1:9"))
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("move_to", lat=1.0, lon=2.0)
+    executor.execute(c)
+    ((status, detail),) = acks(outbox, c.uid)
+    assert status == "failed" and "autopilot not reachable" in detail
+
+
+# -- against the simulator ------------------------------------------------------------------------
+
+
+def test_move_to_arms_goes_guided_and_is_done_on_arrival(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim(prearm_delay_s=2.0)
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    executor.execute(c)  # waits out the pre-arm checks first
+    assert statuses(outbox, c.uid) == ["acknowledged"]
+    assert sim.sim.armed and sim.sim.mode_name == "GUIDED"
+    assert any("PreArm" in t for t in link.state.statustext)
+    run_until_settled(executor)
+    status, detail = acks(outbox, c.uid)[-1]
+    assert status == "done" and "arrived within" in detail
+    assert link.state.distance_to(*NEAR) <= commands_config.acceptance_radius_m
+
+
+def test_arm_before_move_can_be_turned_off(make_sim, make_link, outbox):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, CommandsConfig(arm_before_move=False))
+    c = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    executor.execute(c)
+    assert acks(outbox, c.uid) == [("failed", "vehicle is disarmed and arm_before_move is off")]
+    assert not sim.sim.armed
+
+
+def test_arming_gives_up_after_the_timeout_with_the_prearm_reason(make_sim, make_link, outbox):
+    sim = make_sim(prearm_delay_s=60)
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, CommandsConfig(arm_timeout_s=1.5))
+    c = cmd("arm")
+    executor.execute(c)
+    ((status, detail),) = acks(outbox, c.uid)
+    assert status == "failed" and "PreArm: Waiting for position estimate" in detail
+
+
+def test_hold_resume_return_home_set_mode_arm_disarm(make_sim, make_link, outbox, commands_config):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    for command, mode in [(cmd("hold"), "HOLD"), (cmd("return_home"), "RTL"),
+                          (cmd("set_mode", mode="MANUAL"), "MANUAL")]:  # fmt: skip
+        executor.execute(command)
+        assert statuses(outbox, command.uid) == ["acknowledged", "done"], acks(outbox, command.uid)
+        assert sim.sim.mode_name == mode
+    disarm = cmd("disarm")
+    executor.execute(disarm)
+    assert statuses(outbox, disarm.uid) == ["acknowledged", "done"] and not sim.sim.armed
+    resume = cmd("resume")  # AUTO without a mission: Rover refuses
+    executor.execute(resume)
+    ((status, detail),) = acks(outbox, resume.uid)
+    assert status == "failed" and "refused mode AUTO" in detail
+
+
+def test_a_refused_mode_change_fails_the_command(make_sim, make_link, outbox, commands_config):
+    sim = make_sim(refuse_modes=("LOITER",))
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("set_mode", mode="LOITER")
+    executor.execute(c)
+    assert acks(outbox, c.uid) == [("failed", "autopilot refused mode LOITER: DENIED")]
+
+
+def test_a_newer_navigation_command_replaces_the_active_one(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim(speed_mps=2)
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    first, second = cmd("move_to", lat=NEAR[0], lon=NEAR[1]), cmd("hold")
+    executor.execute(first)
+    executor.execute(second)
+    assert acks(outbox, first.uid)[-1] == ("failed", f"replaced by hold command {second.uid}")
+    assert statuses(outbox, second.uid) == ["acknowledged", "done"]
+
+
+WAYPOINTS = [
+    {"lat": -31.9795, "lon": 115.8205, "hold_s": 0, "radius_m": 3},
+    {"lat": -31.9790, "lon": 115.8200, "hold_s": 0.5, "radius_m": 0},
+    {"lat": -31.9795, "lon": 115.8195, "hold_s": 0, "radius_m": 2},
+]
+
+
+@pytest.mark.parametrize("request_int", [False, True])
+def test_mission_is_uploaded_with_home_first_and_run_to_the_end(
+    make_sim, make_link, outbox, commands_config, request_int
+):
+    sim = make_sim(request_int=request_int)
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("mission", mission_id=7, items=WAYPOINTS, loop=False)
+    executor.execute(c)
+    assert statuses(outbox, c.uid) == ["acknowledged"], acks(outbox, c.uid)
+    stored = sim.sim.mission
+    assert [(i.x, i.y) for i in stored[1:]] == [(round(w["lat"] * 1e7), round(w["lon"] * 1e7))
+                                                for w in WAYPOINTS]  # fmt: skip
+    assert (stored[0].x, stored[0].y) == (round(START[0] * 1e7), round(START[1] * 1e7))
+    run_until_settled(executor)
+    assert acks(outbox, c.uid)[-1] == ("done", "mission complete: reached waypoint 3")
+    assert sim.sim.mode_name == "HOLD"
+
+
+def test_a_looping_mission_is_done_once_running(make_sim, make_link, outbox, commands_config):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("mission", mission_id=None, items=WAYPOINTS, loop=True)
+    executor.execute(c)
+    assert statuses(outbox, c.uid) == ["acknowledged", "done"]
+    assert sim.sim.mission[-1].command == 177 and sim.sim.mode_name == "AUTO"
+
+
+def test_a_rejected_mission_fails_with_the_error_code(make_sim, make_link, outbox, commands_config):
+    sim = make_sim(reject_mission=4)
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("mission", mission_id=1, items=WAYPOINTS, loop=False)
+    executor.execute(c)
+    ((status, detail),) = acks(outbox, c.uid)
+    assert status == "failed"
+    assert detail == "mission upload failed: autopilot rejected the mission: MAV_MISSION_NO_SPACE"
+    assert sim.sim.mission == []
+
+
+def test_mission_upload_survives_a_lossy_link(make_sim, make_link, outbox, commands_config):
+    sim = make_sim(drop=0.15, dup=0.2, seed=3)
+    link = make_link(sim.endpoint, silent_after_s=10)
+    c = cmd("mission", mission_id=1, items=WAYPOINTS * 3, loop=False)
+    upload = link.upload_mission(
+        __import__("edge_client.mission", fromlist=["build_mission"]).build_mission(
+            START, c.params["items"]
+        )
+    )
+    assert upload.ok, upload.error
+    assert len(sim.sim.mission) == 10
+    assert sim.sim.counts["dropped"] > 0 and sim.sim.counts["duplicated"] > 0
+
+
+def test_unknown_kinds_fail(make_sim, make_link, outbox, commands_config):
+    sim = make_sim()
+    executor = Executor(make_link(sim.endpoint), outbox, commands_config)
+    c = cmd("fhead", bearing=230)
+    executor.execute(c)
+    assert acks(outbox, c.uid) == [("failed", "unknown command kind 'fhead'")]
