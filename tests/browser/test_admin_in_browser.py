@@ -1,0 +1,74 @@
+"""An operator in a real browser: log in, see the fleet, queue a command with the kind form."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+from django.contrib.auth.models import User
+from selenium.webdriver.common.by import By
+from selenium.webdriver.support.ui import Select
+
+from commands.models import Command
+from telemetry.services import fix_ingest
+from vessels.models import Vessel
+
+pytestmark = [pytest.mark.browser, pytest.mark.django_db(transaction=True)]
+SCREENSHOTS = Path(os.environ.get("SHORESIDE_SCREENSHOTS", "")) if os.environ.get(
+    "SHORESIDE_SCREENSHOTS") else None
+
+
+def shot(browser, name: str) -> None:
+    if SCREENSHOTS:
+        SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+        browser.save_screenshot(str(SCREENSHOTS / f"{name}.png"))
+
+
+def log_in(browser, live_server, user: User) -> None:
+    browser.get(live_server.url + "/admin/login/")
+    browser.find_element(By.NAME, "username").send_keys(user.username)
+    browser.find_element(By.NAME, "password").send_keys("pw-" + user.username)
+    browser.find_element(By.CSS_SELECTOR, "input[type=submit]").click()
+
+
+def visible(browser, name: str) -> bool:
+    return browser.find_element(By.NAME, name).is_displayed()
+
+
+def test_an_operator_logs_in_and_queues_a_move_to(browser, live_server, operator_user: User,
+                                                  vessel_a: Vessel, make_fix) -> None:
+    fix_ingest(vessel=vessel_a, records=[make_fix()])
+    log_in(browser, live_server, operator_user)
+    browser.get(live_server.url + "/admin/vessels/vessel/")
+    assert "SPAB" in browser.page_source and "-31.95050, 115.86050" in browser.page_source
+    shot(browser, "vessel-list")
+
+    browser.get(live_server.url + f"/admin/commands/command/add/?vessel={vessel_a.pk}")
+    kind = Select(browser.find_element(By.NAME, "kind"))
+    kind.select_by_value("fhead")
+    assert visible(browser, "fhead__bearing") and not visible(browser, "move_to__lat")
+    kind.select_by_value("move_to")
+    assert visible(browser, "move_to__lat") and not visible(browser, "fhead__bearing")
+    browser.find_element(By.NAME, "move_to__lat").send_keys("-31.96")
+    browser.find_element(By.NAME, "move_to__lon").send_keys("115.85")
+    shot(browser, "command-form")
+    browser.find_element(By.NAME, "_save").click()
+
+    command = Command.objects.get()
+    assert (command.vessel, command.kind, command.params) == (
+        vessel_a, "move_to", {"lat": -31.96, "lon": 115.85})
+    assert command.created_by == operator_user.username
+    assert "was added successfully" in browser.page_source
+
+
+def test_the_admin_loads_no_asset_from_the_internet(browser, live_server,
+                                                    operator_user: User) -> None:
+    log_in(browser, live_server, operator_user)
+    for path in ("/admin/", "/admin/commands/command/add/", "/api/v1/docs/"):
+        browser.get(live_server.url + path)
+        urls = browser.execute_script(
+            "return performance.getEntriesByType('resource').map(e => e.name)")
+        outside = [u for u in urls if not u.startswith(live_server.url)]
+        assert outside == [], path
+    assert "swagger-ui" in browser.page_source
