@@ -8,6 +8,7 @@ from typing import Any
 from drf_spectacular.utils import extend_schema
 from rest_framework import generics, serializers, status
 from rest_framework.exceptions import NotFound, ValidationError
+from rest_framework.pagination import CursorPagination
 from rest_framework.request import Request
 from rest_framework.response import Response
 from rest_framework.views import APIView
@@ -60,10 +61,19 @@ class CommandCreateSerializer(serializers.Serializer):
     expires_at = serializers.DateTimeField(required=False, allow_null=True)
 
 
+class CommandCursor(CursorPagination):
+    # DRF's default cursor orders by "-created", a field Command does not have (500 on GET).
+    ordering = "-created_at"
+    page_size = 100
+    page_size_query_param = "page_size"
+    max_page_size = 1000
+
+
 class VesselCommandsView(generics.ListCreateAPIView):
     """A vessel's commands, newest first; POST `{"kind": ..., "params": {...}}` queues one."""
 
     serializer_class = CommandSerializer
+    pagination_class = CommandCursor
     queryset = Command.objects.none()  # for the model permission check
 
     def get_queryset(self):  # noqa: ANN201 (DRF hook)
