@@ -92,7 +92,11 @@ def _read_input(name: str) -> bytes:
 def _decode(args: argparse.Namespace, out: TextIO) -> int:
     data = _read_input(args.file)
     if args.hex:
-        data = bytes.fromhex(_NOT_HEX.sub("", data.decode("ascii", "replace")))
+        digits = _NOT_HEX.sub("", data.decode("ascii", "replace"))
+        if len(digits) % 2:
+            print("error: odd number of hex digits", file=out)
+            return 2
+        data = bytes.fromhex(digits)
     streams = [("", data)]
     if args.cfa:
         capture = read_cfa(data)

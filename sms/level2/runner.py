@@ -26,7 +26,7 @@ import serial
 
 from .bodies import summarize
 from .codec import Frame
-from .errors import FrameError
+from .errors import FrameError, Level2Error
 from .framing import INTERBYTE_TIMEOUT_S, Decoder
 from .payload import Ignored, Notification, PayloadMachine
 
@@ -171,7 +171,12 @@ class PayloadRunner:
                     self.trace(f"dropped: {item}")
                     continue
                 self.frames_in += 1
-                replies = self.machine.handle(item)
+                try:
+                    replies = self.machine.handle(item)
+                except Level2Error as exc:
+                    # e.g. a configuration the protocol cannot express: log it, keep serving
+                    self.trace(f"cannot answer {summarize(item)}: {exc}")
+                    continue
                 if replies:
                     # Write before tracing: the C&C times the reply (§2: 4–17 ms on the real PIB).
                     port.write(b"".join(bytes(r) for r in replies))

@@ -44,6 +44,11 @@ def test_decode_hex_text(tmp_path: Path) -> None:
     assert lines[-1] == "summary: good=2 bad=0 dropped_bytes=2"
 
 
+def test_decode_refuses_odd_hex(tmp_path: Path) -> None:
+    (tmp_path / "odd.txt").write_text("7E 1")
+    assert run_main("decode", "--hex", str(tmp_path / "odd.txt"))[0] == 2
+
+
 def test_decode_raw_bytes_reports_truncated_and_bad_frames(tmp_path: Path) -> None:
     enumerate_ = bytes.fromhex(APPENDIX_A["enumerate"])
     broken = bytearray(enumerate_)

@@ -5,6 +5,8 @@ from __future__ import annotations
 from datetime import UTC, datetime
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sms.level2.bodies import (
     AckNakQueued,
@@ -334,3 +336,29 @@ def test_which_power_notices_mean_power_down_is_configurable() -> None:
     pib.handle(request(MessageType.POWER, h("00 05"), dest=ME, tid=0x20))
     downs = [n for n in pib.notifications() if isinstance(n, PowerDown)]
     assert downs == [PowerDown(h("00 05"))]
+
+
+# --- robustness ---------------------------------------------------------------------------------
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.sampled_from(
+        [0x0000, 0x0001, 0x0010, 0x0015, 0x0022, 0x0024, 0x0030, 0x0040, 0x0041, 0x7FFF]
+    ),
+    st.binary(max_size=60),
+    st.sampled_from([ME, BROADCAST, Address(0x10, 0x00), Address(0x00, 0x02)]),
+    st.booleans(),
+    st.integers(0, 0xFFFF),
+)
+def test_any_frame_is_handled_without_an_exception(
+    msg_type: int, body: bytes, dest: Address, no_ack: bool, tid: int
+) -> None:
+    pib = machine()
+    pib.source.add("fhead 1")  # type: ignore[attr-defined]
+    frame = Frame.make(msg_type, body, tid=tid, dest=dest, src=CC_MAIN, no_ack=no_ack)
+    replies = pib.handle(frame)
+    assert all(isinstance(r, Frame) and r.tid == tid for r in replies)
+    if no_ack:
+        assert replies == []
+    pib.notifications()
