@@ -25,8 +25,8 @@ def free_port(kind: int = socket.SOCK_DGRAM) -> int:
 class SimThread:
     """A RoverSim stepping in a background thread; ``endpoint`` is what a client connects to."""
 
-    def __init__(self, **options) -> None:
-        self.port = free_port()
+    def __init__(self, port: int | None = None, **options) -> None:
+        self.port = port or free_port()
         self.sim = RoverSim([f"udpin:127.0.0.1:{self.port}"], **{**FAST_SIM, **options})
         self.endpoint = f"udpout:127.0.0.1:{self.port}"
         self._stop = threading.Event()
