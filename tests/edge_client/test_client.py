@@ -1,0 +1,162 @@
+"""The uplink policy (what leaves the outbox when) against a scripted stdlib HTTP server."""
+
+from __future__ import annotations
+
+import json
+import threading
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import pytest
+
+from edge_client.client import EdgeClient
+from edge_client.config import load_config
+from edge_client.mavlink_link import MavlinkLink
+from edge_client.outbox import Outbox
+from edge_client.transports.http import HttpTransport
+
+
+class Handler(BaseHTTPRequestHandler):
+    protocol_version = "HTTP/1.1"
+
+    def _answer(self) -> None:
+        length = int(self.headers.get("Content-Length") or 0)
+        body = json.loads(self.rfile.read(length)) if length else None
+        self.server.log.append((self.command, self.path, self.headers.get("If-None-Match"), body))
+        status, headers, payload = self.server.respond(self.command, self.path, body, self.headers)
+        data = json.dumps(payload).encode() if payload is not None else b""
+        self.send_response(status)
+        for name, value in headers.items():
+            self.send_header(name, value)
+        self.send_header("Content-Length", str(len(data)))
+        self.end_headers()
+        self.wfile.write(data)
+
+    do_GET = do_POST = _answer
+
+    def log_message(self, *args) -> None:
+        pass
+
+
+def accept_all(method, path, body, headers):
+    if path.endswith("/telemetry/"):
+        return 200, {}, {"accepted": len(body["fixes"]), "duplicates": 0, "rejected": []}
+    if path.endswith("/commands/"):
+        return 200, {"ETag": '"v1"'}, {"commands": []}
+    return 200, {}, {"uid": "x", "status": body["status"]}
+
+
+@pytest.fixture
+def server():
+    srv = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+    srv.log, srv.respond = [], accept_all
+    threading.Thread(target=srv.serve_forever, daemon=True).start()
+    yield srv
+    srv.shutdown()
+    srv.server_close()
+
+
+@pytest.fixture
+def client(server, tmp_path):
+    url = f"http://127.0.0.1:{server.server_address[1]}"
+    config = load_config(None, {"server": url, "key": "k", "mavlink": "udpout:127.0.0.1:9",
+                                "outbox": str(tmp_path / "o.sqlite3")})  # fmt: skip
+    box = Outbox(config.outbox.path)
+    c = EdgeClient(
+        config,
+        transport=HttpTransport(base_url=url, key="k", retries=0, backoff_s=0),
+        link=MavlinkLink(config.mavlink),
+        outbox=box,
+    )
+    yield c
+    box.close()
+
+
+def fix(n: int, **extra) -> dict:
+    return {"time": f"2026-11-23T10:00:{n:02d}.000+00:00", "lat": 1.0, "lon": 2.0, **extra}
+
+
+def telemetry_posts(server) -> list[list[dict]]:
+    return [b["fixes"] for m, p, _, b in server.log if p.endswith("/telemetry/")]
+
+
+def test_fixes_go_in_batches_and_leave_when_accepted(client, server):
+    for n in range(120):
+        client.outbox.add_fix(fix(n % 60, lat=1 + n))
+    client.uplink_once(0.0)
+    assert [len(b) for b in telemetry_posts(server)] == [50, 50, 20]
+    assert client.outbox.count("fix") == 0 and client.server_ok is True
+
+
+def test_rejected_fixes_are_dropped_and_counted(client, server):
+    def respond(method, path, body, headers):
+        if path.endswith("/telemetry/"):
+            rejected = [{"index": 1, "errors": {"lat": "out of range"}}]
+            return 200, {}, {"accepted": 2, "duplicates": 0, "rejected": rejected}
+        return accept_all(method, path, body, headers)
+
+    server.respond = respond
+    for n in range(3):
+        client.outbox.add_fix(fix(n))
+    client.uplink_once(0.0)
+    assert client.outbox.count("fix") == 0
+    assert client.outbox.counter("rejected_fixes") == 1
+
+
+def test_an_answer_that_does_not_add_up_keeps_the_fixes(client, server):
+    server.respond = lambda m, p, b, h: (200, {}, {"accepted": 0, "duplicates": 0, "rejected": []})
+    client.outbox.add_fix(fix(1))
+    client.uplink_once(0.0)
+    assert client.outbox.count("fix") == 1
+
+
+def test_a_bad_key_keeps_everything_queued(client, server):
+    server.respond = lambda m, p, b, h: (401, {}, {"error": "authentication_failed", "detail": "x"})
+    client.outbox.add_fix(fix(1))
+    client.outbox.add_ack("u1", "done")
+    wait = client.uplink_once(0.0)
+    assert client.outbox.count() == 2 and client.server_ok is False
+    assert wait > client.config.commands.poll_period_s  # backs off
+
+
+def test_a_malformed_fix_is_isolated_by_splitting_the_batch(client, server):
+    def respond(method, path, body, headers):
+        if path.endswith("/telemetry/") and any("poison" in f for f in body["fixes"]):
+            return 400, {}, {"error": "parse_error", "detail": "malformed"}
+        return accept_all(method, path, body, headers)
+
+    server.respond = respond
+    for n in range(8):
+        client.outbox.add_fix(fix(n, **({"poison": 1} if n == 5 else {})))
+    client.uplink_once(0.0)
+    assert client.outbox.count("fix") == 0
+    assert client.outbox.counter("rejected_fixes") == 1
+    sent = [f["time"] for batch in telemetry_posts(server) for f in batch if "poison" not in f]
+    assert sorted(set(sent)) == sorted(fix(n)["time"] for n in range(8) if n != 5)
+
+
+@pytest.mark.parametrize(("status", "kept"), [(404, 0), (409, 0), (500, 1)])
+def test_acks_the_server_will_never_take_are_dropped(client, server, status, kept):
+    server.respond = lambda m, p, b, h: (status, {}, {"error": "x", "detail": "y"})
+    client.outbox.add_ack("u1", "done", "arrived")
+    client.uplink_once(0.0)
+    assert client.outbox.count("ack") == kept
+    assert ("POST", "/api/v1/boat/commands/u1/ack/", None,
+            {"status": "done", "detail": "arrived"}) in server.log  # fmt: skip
+
+
+def test_polls_send_the_etag_and_new_commands_reach_the_executor(client, server):
+    def respond(method, path, body, headers):
+        if path.endswith("/commands/"):
+            if headers.get("If-None-Match") == '"v2"':
+                return 304, {"ETag": '"v2"'}, None
+            return 200, {"ETag": '"v2"'}, {"commands": [
+                {"uid": "c1", "kind": "hold", "params": {}, "created_at": "2026-11-23T10:00:00Z",
+                 "expires_at": None}]}  # fmt: skip
+        return accept_all(method, path, body, headers)
+
+    server.respond = respond
+    client.uplink_once(0.0)
+    client.uplink_once(100.0)
+    polls = [(etag) for m, p, etag, _ in server.log if p.endswith("/commands/")]
+    assert polls == [None, '"v2"']
+    assert client.executor._queue.qsize() == 1  # queued once, from the first poll only
