@@ -142,7 +142,7 @@ class SimConfig:
     faults: Sequence[str] = ()
     fault_rate: float = 0.0
     seed: int = 0
-    start_time: datetime = datetime(2014, 4, 17, 22, 20, 43, tzinfo=UTC)  # §8.3 example
+    start_time: datetime | None = None  # GPS time at the start; None: the wall clock's
 
 
 @dataclass
@@ -193,6 +193,8 @@ class CcSimulator:
         self.period_s = self.config.period_s or 20.0
         self.payload_flags = 0
         self._tid = FIRST_TID
+        self._clock_start = self.clock.now()
+        self._start_time = self.config.start_time or datetime.now(UTC)
         self._rng = random.Random(self.config.seed)
         unknown = set(self.config.faults) - set(FAULTS)
         if unknown:
@@ -457,7 +459,7 @@ class CcSimulator:
         position = self.config.position
         if position is None or self.stats.polls % 2:
             return bytes(StatusRequest())
-        when = self.config.start_time + timedelta(seconds=self.clock.now())
+        when = self._start_time + timedelta(seconds=self.clock.now() - self._clock_start)
         return bytes(StatusRequest.with_fix(when.replace(microsecond=0), *position))
 
     def _next_tid(self) -> int:

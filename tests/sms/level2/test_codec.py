@@ -41,6 +41,10 @@ def test_crc_matches_the_protocol_page(data: str, crc: int, wire: str) -> None:
     assert crc16_arc(h(data) + crc.to_bytes(2, "little")) == 0
 
 
+def test_crc_is_appended_little_endian_not_big_endian() -> None:
+    assert crc16_arc(b"123456789" + (0xBB3D).to_bytes(2, "big")) == 0xC2E3  # §3
+
+
 def test_crc_is_not_xmodem_nor_modbus_and_masks_high_bytes() -> None:
     assert binascii.crc_hqx(b"123456789", 0) == 0x31C3 != crc16_arc(b"123456789")
     assert crc16_arc(b"123456789") != 0x4B37  # CRC-16/MODBUS check value

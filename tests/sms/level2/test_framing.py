@@ -83,6 +83,23 @@ def test_every_capture_frame_re_encodes_byte_identically(captures: dict[str, Cap
     assert checked == GOOD_FRAMES_IN_CAPTURES
 
 
+def test_the_last_console_reply_of_appendix_a_is_in_the_capture(
+    captures: dict[str, Capture],
+) -> None:
+    # Appendix A: header 7E 53 00 03 00 00 01 1C 00 01 00, body 40 00 00 05 41 00 + 65 bytes
+    # of ASCII, CRC EA AC.
+    [frame] = [
+        f
+        for f in decode_stream(captures["OA_enum_first_2014Mar19.cfa"].payload_to_cc)
+        if f.tid == 0x1C
+    ]
+    wire = bytes(frame)
+    assert wire[:11] == bytes.fromhex("7E 53 00 03 00 00 01 1C 00 01 00")
+    assert frame.body[:6] == bytes.fromhex("40 00 00 05 41 00") and len(frame.body) == 6 + 65
+    assert frame.body[6:].strip() == b"Board ID=01, Task ID=03, Task Running is an Empty PM Sensor"
+    assert wire[-2:] == bytes.fromhex("EA AC")
+
+
 def test_the_ff_burst_before_the_first_frame_is_dropped_and_counted(
     captures: dict[str, Capture],
 ) -> None:
