@@ -31,6 +31,7 @@ from .bodies import (
     CommandPacket,
     Enumerate,
     EnumerationReply,
+    ExtraInfo,
     QueuedReply,
     StatusReply,
     StatusRequest,
@@ -56,6 +57,7 @@ QUEUED_GAP_S = 0.25  # §9: next request queued ~0.23–0.24 s after a 0x8040 re
 # Watching for a reply that must not come: the real PIB answered within 17 ms (§2), so a wrong
 # answer would show up well inside this window.
 SILENCE_WAIT_S = 0.2
+DEFAULT_PERIOD_S = 20.0  # §8.2: the real PIB's declared period, until enumeration says otherwise
 FIRST_TID = 0x0017  # §9: the capture's enumerate tid
 UNKNOWN_TYPE = 0x0077  # not in §7: the payload must ignore it
 FF_RUN_MAX = 256  # §2: the real line carried long 0xFF bursts; a few hundred bytes suffice here
@@ -190,7 +192,7 @@ class CcSimulator:
         self.trace = trace or (lambda _line: None)
         self.stats = SimStats()
         self.payload: Address | None = None
-        self.period_s = self.config.period_s or 20.0
+        self.period_s = self.config.period_s or DEFAULT_PERIOD_S
         self.payload_flags = 0
         self._tid = FIRST_TID
         self._clock_start = self.clock.now()
@@ -282,7 +284,8 @@ class CcSimulator:
             self.stats.command_tids.append(tid)
         wanted = self.config.send_results
         if wanted is None:
-            wanted = bool(self.payload_flags & 0x08)  # §8.6: flag 0x08 = command ACK/NAK wanted
+            # §8.6 [INF]: the C&C answers commands when the payload set "command ACK/NAK wanted"
+            wanted = bool(self.payload_flags & ExtraInfo.COMMAND_ACK)
         if not wanted:
             return
         code = self.config.ack_policy(sum(self.stats.results_sent.values()), packet)
@@ -308,14 +311,17 @@ class CcSimulator:
         if fault == "escapes":
             tid = self._escaping_tid(msg_type, body, dest)
         frame = Frame.make(msg_type, body, tid=tid, dest=dest, src=CC_MAIN)
+        started = self.clock.now()
         for attempt in range(self.config.attempts):
             if attempt:
+                # §10: attempts start ~2 s apart; with a real clock the wait is part of that.
+                self.clock.sleep(self.config.retry_interval_s - (self.clock.now() - started))
                 fault = self._pick_fault(allow_escapes=False)
+            started = self.clock.now()
             self.stats.attempts += 1
             intact = self._send_with_fault(frame, fault)
             if not intact:
                 self._expect_silence(tid, f"answer to a broken {fault} frame")
-                self.clock.sleep(self.config.retry_interval_s)
                 continue
             self.stats.valid_attempts += 1
             reply = self._wait_reply(frame, self.config.reply_wait_s)
@@ -325,7 +331,6 @@ class CcSimulator:
                     self._check_retry_answer(frame, reply, fault)
                 return reply
             self.stats.unanswered.append((tid, summarize(frame)))
-            self.clock.sleep(self.config.retry_interval_s)
         return None
 
     def _check_retry_answer(self, frame: Frame, reply: Frame, fault: str) -> None:
