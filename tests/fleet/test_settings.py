@@ -1,0 +1,240 @@
+"""Settings helpers and the production-safety system checks (fleet/settings.py, checks.py)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+from django.core import checks as django_checks
+from django.core.management import call_command
+
+from fleet.checks import check_production_safety
+from fleet.settings import database_from_url, env_bool, env_int, env_list
+
+ROOT = Path(__file__).resolve().parents[2]
+LONG_KEY = "k" * 50
+
+
+# --- env helpers ---
+
+
+@pytest.mark.parametrize("raw", ["1", "true", "TRUE", "Yes", "on", " on "])
+def test_env_bool_reads_yes(monkeypatch: pytest.MonkeyPatch, raw: str) -> None:
+    monkeypatch.setenv("X_FLAG", raw)
+    assert env_bool("X_FLAG", False) is True
+
+
+@pytest.mark.parametrize("raw", ["0", "false", "No", "OFF", ""])
+def test_env_bool_reads_no(monkeypatch: pytest.MonkeyPatch, raw: str) -> None:
+    monkeypatch.setenv("X_FLAG", raw)
+    assert env_bool("X_FLAG", True) is False
+
+
+@pytest.mark.parametrize("raw", ["2", "maybe", "y", "n", "True!", "enable", "-1"])
+def test_env_bool_refuses_to_guess(monkeypatch: pytest.MonkeyPatch, raw: str) -> None:
+    monkeypatch.setenv("X_FLAG", raw)
+    with pytest.raises(ValueError, match=r"X_FLAG=.* is not a boolean"):
+        env_bool("X_FLAG", False)
+
+
+def test_env_helpers_fall_back_to_the_default(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("X_FLAG", raising=False)
+    assert env_bool("X_FLAG", True) is True
+    assert env_int("X_FLAG", 7) == 7
+    assert env_list("X_FLAG", ["a"]) == ["a"]
+    monkeypatch.setenv("X_FLAG", "  ")
+    assert env_int("X_FLAG", 7) == 7
+
+
+@pytest.mark.parametrize(("raw", "value"), [("42", 42), (" 42 ", 42), ("-3", -3), ("0", 0)])
+def test_env_int_reads_integers(monkeypatch: pytest.MonkeyPatch, raw: str, value: int) -> None:
+    monkeypatch.setenv("X_NUM", raw)
+    assert env_int("X_NUM", 1) == value
+
+
+@pytest.mark.parametrize("raw", ["ten", "1.5", "1e3", "0x10", "60s"])
+def test_env_int_refuses_anything_else(monkeypatch: pytest.MonkeyPatch, raw: str) -> None:
+    monkeypatch.setenv("X_NUM", raw)
+    with pytest.raises(ValueError, match=r"X_NUM=.* is not an integer"):
+        env_int("X_NUM", 1)
+
+
+def test_env_list_splits_on_commas(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("X_HOSTS", "a.example, b.example,,")
+    assert env_list("X_HOSTS", []) == ["a.example", "b.example"]
+
+
+# --- DATABASE_URL ---
+
+
+def test_database_from_a_postgres_url() -> None:
+    db = database_from_url("postgres://fleet:p%40ss@db.example:6543/shore?sslmode=require")
+    assert db["ENGINE"] == "django.db.backends.postgresql"
+    assert (db["NAME"], db["USER"], db["PASSWORD"]) == ("shore", "fleet", "p@ss")
+    assert (db["HOST"], db["PORT"]) == ("db.example", "6543")
+    assert db["OPTIONS"] == {"sslmode": "require"}
+
+
+@pytest.mark.parametrize("scheme", ["postgres", "postgresql", "pgsql"])
+def test_database_url_scheme_aliases(scheme: str) -> None:
+    db = database_from_url(f"{scheme}://postgres@127.0.0.1/x")
+    assert db["ENGINE"] == "django.db.backends.postgresql"
+    assert (db["USER"], db["PASSWORD"], db["PORT"]) == ("postgres", "", "")
+
+
+def test_database_from_a_sqlite_url() -> None:
+    db = database_from_url("sqlite:///var/lib/shoreside/db.sqlite3")
+    assert db["ENGINE"] == "django.db.backends.sqlite3"
+    assert db["NAME"] == Path("/var/lib/shoreside/db.sqlite3")
+    assert "journal_mode=WAL" in db["OPTIONS"]["init_command"]
+    assert "busy_timeout" in db["OPTIONS"]["init_command"]
+
+
+@pytest.mark.parametrize("url", ["mysql://u@h/db", "redis://h", "nonsense"])
+def test_an_unsupported_database_url_is_refused(url: str) -> None:
+    with pytest.raises(ValueError, match="not supported"):
+        database_from_url(url)
+
+
+def test_the_default_timezone_is_utc(settings: Any) -> None:
+    assert settings.TIME_ZONE == "UTC"
+    assert settings.USE_TZ is True
+
+
+# --- production safety checks ---
+
+
+def ids() -> set[str]:
+    return {problem.id for problem in check_production_safety()}
+
+
+def safe_production(settings: Any) -> None:
+    settings.PRODUCTION = True
+    settings.DEBUG = False
+    settings.SECRET_KEY = LONG_KEY
+    settings.SESSION_COOKIE_SECURE = True
+    settings.CSRF_COOKIE_SECURE = True
+    settings.SECURE_SSL_REDIRECT = True
+    settings.ALLOWED_HOSTS = ["shoreside.example"]
+
+
+def test_a_safe_production_setup_passes(settings: Any) -> None:
+    safe_production(settings)
+    assert ids() == set()
+
+
+def test_local_development_passes(settings: Any) -> None:
+    settings.PRODUCTION = False
+    settings.DEBUG = True
+    settings.ALLOWED_HOSTS = ["localhost", "127.0.0.1", "[::1]"]
+    assert ids() == set()
+
+
+def test_e001_debug_with_public_hosts(settings: Any) -> None:
+    settings.PRODUCTION = False
+    settings.DEBUG = True
+    settings.ALLOWED_HOSTS = ["localhost", "shoreside.example"]
+    assert ids() == {"fleet.E001", "fleet.W002"}
+
+
+def test_w002_public_hosts_without_production(settings: Any) -> None:
+    settings.PRODUCTION = False
+    settings.DEBUG = False
+    settings.ALLOWED_HOSTS = ["*"]
+    problems = check_production_safety()
+    assert [p.id for p in problems] == ["fleet.W002"]
+    assert problems[0].level == django_checks.WARNING
+
+
+@pytest.mark.parametrize(
+    ("setting", "value", "problem"),
+    [
+        ("SECRET_KEY", "short", "fleet.E002"),
+        ("DEBUG", True, "fleet.E003"),
+        ("SESSION_COOKIE_SECURE", False, "fleet.E004"),
+        ("CSRF_COOKIE_SECURE", False, "fleet.E004"),
+        ("ALLOWED_HOSTS", [], "fleet.E005"),
+        ("ALLOWED_HOSTS", ["*"], "fleet.E005"),
+        ("SECURE_SSL_REDIRECT", False, "fleet.W001"),
+    ],
+)
+def test_each_unsafe_production_setting_is_reported(
+    settings: Any, setting: str, value: Any, problem: str
+) -> None:
+    safe_production(settings)
+    setattr(settings, setting, value)
+    found = ids()
+    assert problem in found
+    # DEBUG with a public host also trips E001; nothing else should fire.
+    assert found <= {problem, "fleet.E001"}
+
+
+def test_the_errors_are_errors_with_hints(settings: Any) -> None:
+    safe_production(settings)
+    settings.DEBUG = True
+    settings.SECRET_KEY = "short"
+    for problem in check_production_safety():
+        assert problem.hint
+        assert problem.level == (
+            django_checks.WARNING if problem.id.startswith("fleet.W") else django_checks.ERROR
+        )
+
+
+def test_manage_py_check_fails_on_an_unsafe_combination(settings: Any) -> None:
+    safe_production(settings)
+    settings.DEBUG = True
+    from django.core.management.base import SystemCheckError
+
+    with pytest.raises(SystemCheckError, match="fleet.E003"):
+        call_command("check")
+
+
+# --- importing the settings module itself ---
+
+
+def _import_settings(tmp_path: Path, **env: str) -> subprocess.CompletedProcess[str]:
+    clean = {k: v for k, v in os.environ.items() if k not in {"SECRET_KEY", "PRODUCTION", "DEBUG"}}
+    clean.update(SHORESIDE_DATA_DIR=str(tmp_path / "data"), **env)
+    return subprocess.run(
+        [sys.executable, "-c", "import fleet.settings as s; print(s.DEBUG, s.SECURE_SSL_REDIRECT)"],
+        cwd=ROOT,
+        env=clean,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+
+
+def test_production_without_a_secret_key_refuses_to_start(tmp_path: Path) -> None:
+    result = _import_settings(tmp_path, PRODUCTION="1")
+    assert result.returncode != 0
+    assert "ImproperlyConfigured" in result.stderr
+    assert "SECRET_KEY must be set in the environment when PRODUCTION=1" in result.stderr
+    assert not (tmp_path / "data" / "secret_key").exists()
+
+
+def test_production_with_a_secret_key_has_safe_defaults(tmp_path: Path) -> None:
+    result = _import_settings(tmp_path, PRODUCTION="1", SECRET_KEY=LONG_KEY)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["False", "True"]
+
+
+def test_local_use_generates_and_keeps_a_secret_key(tmp_path: Path) -> None:
+    first = _import_settings(tmp_path)
+    assert first.returncode == 0, first.stderr
+    key_file = tmp_path / "data" / "secret_key"
+    key = key_file.read_text()
+    assert len(key) >= 50
+    assert oct(key_file.stat().st_mode & 0o777) == "0o600"
+    assert _import_settings(tmp_path).returncode == 0
+    assert key_file.read_text() == key
+
+
+def test_an_ambiguous_flag_stops_the_settings_import(tmp_path: Path) -> None:
+    result = _import_settings(tmp_path, DEBUG="sometimes")
+    assert result.returncode != 0
+    assert "DEBUG='sometimes' is not a boolean" in result.stderr
