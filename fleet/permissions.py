@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+from typing import Any
+
 from rest_framework.permissions import DjangoModelPermissions
 
 
@@ -16,6 +18,14 @@ class ModelPermissions(DjangoModelPermissions):
         "HEAD": ["%(app_label)s.view_%(model_name)s"],
         "OPTIONS": ["%(app_label)s.view_%(model_name)s"],
     }
+
+    def _queryset(self, view: Any) -> Any:
+        # Views scoped by URL (a vessel's fixes) set `queryset` for this check: DRF would
+        # otherwise call get_queryset() first, and a 404-versus-403 would tell an operator
+        # without rights which vessels exist.
+        if getattr(view, "queryset", None) is not None:
+            return view.queryset
+        return super()._queryset(view)
 
 
 class ChangeModelPermissions(ModelPermissions):

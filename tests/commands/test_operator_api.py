@@ -444,12 +444,6 @@ def test_schema_and_docs_need_a_login(anonymous: APIClient, boat_a: APIClient, p
     assert boat_a.get(path).status_code in (401, 403)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="DjangoModelPermissions calls view.get_queryset() (which looks the vessel up and "
-    "parses ?from=) before checking rights; fleet/permissions.py should use view.queryset, "
-    "which these views set 'for the model permission check'.",
-)
 @pytest.mark.parametrize(
     "path",
     [
