@@ -153,6 +153,7 @@ class Outbox:
                 "INSERT INTO outbox (kind, body, created_at) VALUES ('fix', ?, ?)",
                 (body, time.time()),
             )
+            self._bump(db, "recorded_fixes")
             (count,) = db.execute("SELECT COUNT(*) FROM outbox WHERE kind = 'fix'").fetchone()
             excess = count - self.max_fixes
             if excess > 0:

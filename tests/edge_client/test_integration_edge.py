@@ -1,0 +1,201 @@
+"""End to end, all real processes: the live Django server, the simulator, the edge client.
+
+The simulator runs fast (50 m/s, 10 Hz) and the client samples and polls every 0.3 s so the
+whole file stays well under a minute.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from urllib.parse import urlsplit
+
+import pytest
+
+from commands.models import Command
+from commands.services import command_enqueue
+from edge_client.config import MavlinkConfig
+from edge_client.mavlink_link import MavlinkLink
+from edge_client.mission import build_mission
+from edge_client.vehicle import distance_m
+from telemetry.models import Fix
+from tests.edge_client.conftest import free_port
+from tests.edge_client.helpers import (
+    ModemStandIn,
+    TcpProxy,
+    outbox_counts,
+    start,
+    stop,
+    wait_until,
+)
+from vessels.services import vessel_create, vessel_key_issue
+
+pytestmark = [pytest.mark.django_db(transaction=True), pytest.mark.slow]
+
+HOME = (-31.9800, 115.8200)
+PERIOD = "0.3"
+
+
+@pytest.fixture
+def boat(live_server):
+    vessel = vessel_create(slug="spab", name="SPAB", kind="mavlink")
+    _, key = vessel_key_issue(vessel=vessel, label="edge test")
+    return vessel, key
+
+
+class Rig:
+    """Starts the simulator and the edge client as processes; stops them at the end."""
+
+    def __init__(self, tmp_path: Path) -> None:
+        self.tmp = tmp_path
+        self.procs: list = []
+        self.sim_port = free_port()
+        self.observer_port = free_port()
+        self.outbox = tmp_path / "outbox.sqlite3"
+
+    def sim(self, *extra: str) -> None:
+        self.procs.append(start(
+            ["-m", "tests.sim", "--listen", f"udpin:127.0.0.1:{self.sim_port}",
+             "--listen", f"udpin:127.0.0.1:{self.observer_port}", "--lat", str(HOME[0]),
+             "--lon", str(HOME[1]), "--speed", "50", "--rate", "10", "--prearm-delay", "1",
+             *extra],
+            self.tmp / "sim.log",
+        ))  # fmt: skip
+
+    def client(self, server: str, key: str, *extra: str) -> None:
+        self.edge = start(
+            ["-m", "edge_client", "run", "--server", server, "--key", key,
+             "--mavlink", f"udpout:127.0.0.1:{self.sim_port}", "--outbox", str(self.outbox),
+             "--telemetry-period", PERIOD, "--poll-period", PERIOD, *extra],
+            self.tmp / "edge.log",
+        )  # fmt: skip
+        self.procs.append(self.edge)
+
+    def observer(self) -> MavlinkLink:
+        """A second MAVLink peer on the simulator (like a GCS on another telemetry port)."""
+        link = MavlinkLink(MavlinkConfig(connection=f"udpout:127.0.0.1:{self.observer_port}",
+                                         source_component=190))  # fmt: skip
+        link.start()
+        assert link.wait_heartbeat(10)
+        self.link = link
+        return link
+
+    def log(self) -> str:
+        return (self.tmp / "edge.log").read_text()
+
+    def close(self) -> None:
+        if getattr(self, "link", None):
+            self.link.stop()
+        for proc in reversed(self.procs):
+            stop(proc)
+
+
+@pytest.fixture
+def rig(tmp_path):
+    r = Rig(tmp_path)
+    yield r
+    r.close()
+
+
+def command_status(command: Command) -> str:
+    command.refresh_from_db()
+    return command.status
+
+
+def test_move_to_end_to_end(live_server, boat, rig):
+    vessel, key = boat
+    rig.sim()
+    rig.client(live_server.url, key)
+    wait_until(lambda: Fix.objects.filter(vessel=vessel).exists(), 20, "a first fix")
+    target = (-31.9790, 115.8210)  # ~145 m north-east
+    params = {"lat": target[0], "lon": target[1]}
+    command = command_enqueue(vessel=vessel, kind="move_to", params=params, created_by="test")
+    wait_until(lambda: command_status(command) in ("done", "failed"), 30, "move_to to finish")
+    assert command.status == "done", (command.result_detail, rig.log()[-3000:])
+    assert "arrived within" in command.result_detail
+    wait_until(
+        lambda: any(distance_m(f.lat, f.lon, *target) < 10
+                    for f in Fix.objects.filter(vessel=vessel)),
+        10, "a fix at the target",
+    )  # fmt: skip
+    assert stop(rig.edge) == 0
+
+
+FIVE = [
+    {"lat": -31.9795, "lon": 115.8205, "hold_s": 0.5, "radius_m": 2},
+    {"lat": -31.9790, "lon": 115.8212, "hold_s": 0.5, "radius_m": 2},
+    {"lat": -31.9798, "lon": 115.8218, "hold_s": 0.5, "radius_m": 3},
+    {"lat": -31.9806, "lon": 115.8211, "hold_s": 0.5, "radius_m": 2},
+    {"lat": -31.9803, "lon": 115.8203, "hold_s": 0.5, "radius_m": 2},
+]
+
+
+def test_five_waypoint_mission_is_uploaded_read_back_and_followed(live_server, boat, rig):
+    vessel, key = boat
+    rig.sim()  # default: the simulator asks for items with MISSION_REQUEST, as Rover does
+    rig.client(live_server.url, key)
+    observer = rig.observer()
+    wait_until(lambda: Fix.objects.filter(vessel=vessel).exists(), 20, "a first fix")
+    command = command_enqueue(vessel=vessel, kind="mission",
+                              params={"mission_id": None, "items": FIVE, "loop": False},
+                              created_by="test")  # fmt: skip
+    wait_until(lambda: command_status(command) in ("acknowledged", "done", "failed"), 20)
+    assert command.status != "failed", command.result_detail
+    # Read it back from the autopilot over MAVLink: identical, home as item 0.
+    download = observer.download_mission()
+    assert download.ok, download.error
+    expected = build_mission(HOME, FIVE)
+    assert len(download.items) == 6
+    assert all(a.same_route(b) for a, b in zip(download.items, expected, strict=True))
+    wait_until(lambda: command_status(command) in ("done", "failed"), 40, "the mission to end")
+    assert command.status == "done", command.result_detail
+    # The track on the server passes each waypoint (the boat holds 0.5 s at each one).
+    for wp in FIVE:
+        wait_until(
+            lambda wp=wp: any(distance_m(f.lat, f.lon, wp["lat"], wp["lon"]) <= wp["radius_m"] + 1
+                              for f in Fix.objects.filter(vessel=vessel)),
+            5, f"a fix at {wp}",
+        )  # fmt: skip
+
+
+def test_after_an_outage_every_fix_is_on_the_server_exactly_once(live_server, boat, rig):
+    vessel, key = boat
+    proxy = TcpProxy(("127.0.0.1", urlsplit(live_server.url).port))
+    rig.sim()
+    rig.client(f"http://127.0.0.1:{proxy.port}", key)
+    wait_until(lambda: Fix.objects.filter(vessel=vessel).count() >= 3, 20, "fixes flowing")
+    proxy.down()
+    before = Fix.objects.filter(vessel=vessel).count()
+    time.sleep(4)  # ~13 fixes recorded with no server
+    assert Fix.objects.filter(vessel=vessel).count() == before
+    queued = outbox_counts(rig.outbox)["queued_fix"]
+    assert queued >= 8, queued
+    proxy.up()
+    wait_until(lambda: outbox_counts(rig.outbox)["queued_fix"] == 0, 30, "the backlog to drain")
+    assert stop(rig.edge) == 0  # a clean stop; nothing left behind
+    counts = outbox_counts(rig.outbox)
+    on_server = list(Fix.objects.filter(vessel=vessel).values_list("recorded_at", flat=True))
+    assert counts["queued_fix"] == 0 and counts.get("evicted_fixes", 0) == 0
+    assert len(on_server) == len(set(on_server)) == counts["recorded_fixes"]
+    proxy.down()
+
+
+def test_the_f2414_modem_path_through_a_pty(live_server, boat, rig, tmp_path):
+    vessel, key = boat
+    modem = ModemStandIn(("127.0.0.1", urlsplit(live_server.url).port))
+    config = tmp_path / "edge.toml"
+    config.write_text(
+        f'[transport]\nkind = "modem"\ntimeout_s = 10\n\n'
+        f'[transport.modem]\nport = "{modem.device}"\nconnect_delay_s = 0.05\n'
+    )
+    try:
+        rig.sim()
+        rig.client(live_server.url, key, "--config", str(config))
+        wait_until(lambda: Fix.objects.filter(vessel=vessel).count() >= 2, 30, "fixes via modem")
+        command = command_enqueue(vessel=vessel, kind="hold", params={}, created_by="test")
+        wait_until(lambda: command_status(command) in ("done", "failed"), 30, "hold via modem")
+        assert command.status == "done", command.result_detail
+        assert modem.sessions >= 3  # one connection per exchange, opened by "don"
+        assert stop(rig.edge) == 0
+    finally:
+        modem.close()
