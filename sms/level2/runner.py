@@ -13,9 +13,12 @@ timeout for half frames); STYLE.md §7 and §10 (``serial.serial_for_url`` for r
 
 from __future__ import annotations
 
+import fcntl
 import logging
 import os
 import select
+import sys
+import termios
 import threading
 import time
 import tty
@@ -35,7 +38,6 @@ log = logging.getLogger(__name__)
 BAUDRATE = 115_200  # §2
 READ_TIMEOUT_S = 0.05  # how long one read blocks; bounds how fast a stop request is seen
 RECONNECT_DELAY_S = 1.0  # between attempts to reopen a port that went away
-READ_CHUNK = 4096
 
 
 class PtyPort:
@@ -54,8 +56,9 @@ class PtyPort:
 
     @property
     def in_waiting(self) -> int:
-        ready, _, _ = select.select([self._master], [], [], 0)
-        return READ_CHUNK if ready else 0
+        """Bytes readable now (FIONREAD, as pyserial's PosixSerial does)."""
+        count = fcntl.ioctl(self._master, termios.FIONREAD, b"\0\0\0\0")
+        return int.from_bytes(count, sys.byteorder)
 
     def read(self, size: int = 1) -> bytes:
         ready, _, _ = select.select([self._master], [], [], self.timeout)
