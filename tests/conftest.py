@@ -27,6 +27,12 @@ def _allowed_hosts(settings: Any) -> None:
     settings.ALLOWED_HOSTS = ["testserver", "localhost", "127.0.0.1"]
 
 
+@pytest.fixture(autouse=True)
+def _fast_password_hashing(settings: Any) -> None:
+    # Each operator persona is a new user; full-strength PBKDF2 costs ~0.3 s per user.
+    settings.PASSWORD_HASHERS = ["django.contrib.auth.hashers.MD5PasswordHasher"]
+
+
 @pytest.fixture
 def vessel_a(db: None) -> Vessel:
     return vessel_create(slug="spab", name="SPAB", kind="mavlink", telemetry_period_s=10)
