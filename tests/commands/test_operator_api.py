@@ -425,6 +425,10 @@ def test_the_openapi_schema_documents_both_apis(session_operator: APIClient) -> 
     ):
         assert path in schema["paths"], path
     assert not any(p.startswith("/spab/") for p in schema["paths"])
+    # Boats and operators authenticate differently, and the schema says so.
+    assert schema["components"]["securitySchemes"]["vesselKey"]["name"] == "Authorization"
+    assert schema["paths"]["/api/v1/boat/commands/"]["get"]["security"] == [{"vesselKey": []}]
+    assert {"vesselKey": []} not in schema["paths"]["/api/v1/vessels/"]["get"]["security"]
 
 
 def test_the_docs_page_uses_only_local_assets(session_operator: APIClient) -> None:
