@@ -199,8 +199,9 @@ class VehicleState:
     def fix(self, wall_now: float | None = None) -> dict[str, Any] | None:
         """The current fix for ``POST boat/telemetry/``, or None without a position or a clock.
 
-        ``time`` is ISO 8601 with offset, to the millisecond: the server dedupes on
-        (vessel, time), so the value must survive the round trip exactly.
+        ``time`` is Unix seconds rounded to the millisecond (DESIGN §5 accepts either that or
+        ISO 8601; this is half the bytes). The server dedupes on (vessel, time), and the same
+        number always maps to the same instant, so a re-sent fix is a harmless duplicate.
         """
         lat, lon = self.lat, self.lon
         if lat is None or lon is None:
@@ -210,8 +211,7 @@ class VehicleState:
             if self.gps_clock_offset_s is None:
                 return None
             now += self.gps_clock_offset_s
-        stamp = datetime.fromtimestamp(round(now, 3), tz=UTC).isoformat(timespec="milliseconds")
-        fix: dict[str, Any] = {"time": stamp, "lat": round(lat, 7), "lon": round(lon, 7)}
+        fix: dict[str, Any] = {"time": round(now, 3), "lat": round(lat, 7), "lon": round(lon, 7)}
         if self.heading_deg is not None:
             fix["heading_deg"] = round(self.heading_deg, 2)
         if self.speed_mps is not None:

@@ -94,7 +94,6 @@ class ModemTransport:
             {
                 "Authorization": f"Api-Key {self.key}",
                 "User-Agent": f"shoreside-edge/{__version__}",
-                "Accept": "application/json",
                 **headers,
             },
             body,

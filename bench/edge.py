@@ -1,0 +1,308 @@
+"""Edge client footprint: memory, CPU and bytes on the wire, against the thesis' client.
+
+    python -m bench.edge [--duration 60]
+
+Runs, side by side for ``--duration`` seconds (after a short warm-up):
+
+- the simulated Rover (``tests.sim``) streaming GLOBAL_POSITION_INT at 4 Hz, one per client;
+- the edge client (real process, HTTP transport) with telemetry every 2 s, polling every 2 s
+  (the thesis' cadence) and every 10 s (the default), each against its own tiny stdlib HTTP
+  server that speaks the boat API (ETag/304 included) and counts every byte in and out;
+- the thesis' client as a baseline (seed §3.1, §4.2): every 2 s one JSON fix per POST to
+  ``data.cgi`` and a full GET of ``requestCommands.cgi``, one TCP connection per request as
+  through the F2414 modem, with minimal hand-written headers (generous to the baseline);
+- an idle Python with the same imports, as the memory baseline.
+
+Bytes are HTTP bytes (request and response lines, headers, bodies); TCP/IP and TLS overhead is
+not counted, but the number of TCP connections is shown (the thesis' client opened one per
+request; the HTTP transport keeps one alive).
+"""
+
+from __future__ import annotations
+
+import argparse
+import http.client
+import json
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+TELEMETRY_PERIOD_S = 2.0
+SIM_RATE_HZ = 4.0
+WARMUP_S = 6.0
+TARGET_RSS_MB = 60.0
+TARGET_CPU_PCT = 3.0
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+class Counting:
+    """A file wrapper that counts bytes read or written."""
+
+    def __init__(self, inner, counter: dict, key: str) -> None:
+        self.inner, self.counter, self.key = inner, counter, key
+
+    def read(self, *a):
+        data = self.inner.read(*a)
+        self.counter[self.key] += len(data)
+        return data
+
+    def readline(self, *a):
+        data = self.inner.readline(*a)
+        self.counter[self.key] += len(data)
+        return data
+
+    def write(self, data):
+        self.counter[self.key] += len(data)
+        return self.inner.write(data)
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+
+class BoatApi(BaseHTTPRequestHandler):
+    """The boat API (v1) and the legacy SPAB endpoints, just enough to answer like the server."""
+
+    protocol_version = "HTTP/1.1"
+    ETAG = '"c1.1"'
+
+    def setup(self) -> None:
+        super().setup()
+        stats = self.server.stats
+        stats["connections"] += 1
+        self.rfile = Counting(self.rfile, stats, "up")
+        self.wfile = Counting(self.wfile, stats, "down")
+
+    def _body(self) -> object:
+        length = int(self.headers.get("Content-Length") or 0)
+        return json.loads(self.rfile.read(length)) if length else None
+
+    def _send(self, status: int, payload: object | None, headers: dict | None = None) -> None:
+        data = b"" if payload is None else json.dumps(payload).encode()
+        self.send_response(status)
+        for name, value in (headers or {}).items():
+            self.send_header(name, value)
+        if payload is not None:
+            self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(data)))
+        self.end_headers()
+        self.wfile.write(data)
+
+    def do_POST(self) -> None:
+        self.server.stats["requests"] += 1
+        body = self._body()
+        if self.path == "/api/v1/boat/telemetry/":
+            fixes = body["fixes"]
+            self.server.stats["fixes"] += len(fixes)
+            self._send(200, {"accepted": len(fixes), "duplicates": 0, "rejected": []})
+        elif self.path == "/spab/data.cgi":
+            self.server.stats["fixes"] += 1 if isinstance(body, dict) else len(body)
+            self._send(200, [{"type": "telemAck"}, {"success": "true", "message": "stored"}])
+        else:
+            self._send(404, {"error": "not_found", "detail": self.path})
+
+    def do_GET(self) -> None:
+        self.server.stats["requests"] += 1
+        if self.path == "/api/v1/boat/commands/":
+            if self.headers.get("If-None-Match") == self.ETAG:
+                self._send(304, None, {"ETag": self.ETAG})
+            else:
+                self._send(200, {"commands": []}, {"ETag": self.ETAG})
+        elif self.path.startswith("/spab/requestCommands.cgi"):
+            self._send(200, [{"type": "command"}])
+        else:
+            self._send(404, {"error": "not_found", "detail": self.path})
+
+    def log_message(self, *args) -> None:
+        pass
+
+
+def serve() -> ThreadingHTTPServer:
+    server = ThreadingHTTPServer(("127.0.0.1", 0), BoatApi)
+    server.stats = {"up": 0, "down": 0, "requests": 0, "connections": 0, "fixes": 0}
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return server
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def spawn(args: list[str]) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("NOTIFY_SOCKET", None)
+    return subprocess.Popen([sys.executable, *args], cwd=ROOT, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+
+
+def cpu_ticks(pid: int) -> int:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return int(fields[11]) + int(fields[12])  # utime + stime (proc(5) fields 14 and 15)
+
+
+def rss_mb(pid: int) -> tuple[float, float]:
+    """(current VmRSS, peak VmHWM) in MB."""
+    values = {}
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith(("VmRSS:", "VmHWM:")):
+            name, kb = line.split(":")
+            values[name] = int(kb.split()[0]) / 1024
+    return values["VmRSS"], values["VmHWM"]
+
+
+class EdgeRun:
+    def __init__(self, label: str, poll_s: float, workdir: Path) -> None:
+        self.label = label
+        self.server = serve()
+        port = free_udp_port()
+        self.sim = spawn(["-m", "tests.sim", "--listen", f"udpin:127.0.0.1:{port}",
+                          "--rate", str(SIM_RATE_HZ), "--prearm-delay", "0"])  # fmt: skip
+        self.client = spawn([
+            "-m", "edge_client", "run", "--server",
+            f"http://127.0.0.1:{self.server.server_address[1]}", "--key", "bench-key",
+            "--mavlink", f"udpout:127.0.0.1:{port}", "--outbox", str(workdir / f"{poll_s}.db"),
+            "--telemetry-period", str(TELEMETRY_PERIOD_S), "--poll-period", str(poll_s),
+            "--log-level", "WARNING",
+        ])  # fmt: skip
+
+    def begin(self) -> None:
+        self.t0, self.ticks0 = time.monotonic(), cpu_ticks(self.client.pid)
+        self.stats0 = dict(self.server.stats)
+
+    def end(self) -> dict:
+        wall = time.monotonic() - self.t0
+        cpu = (cpu_ticks(self.client.pid) - self.ticks0) / CLK_TCK / wall * 100
+        rss, peak = rss_mb(self.client.pid)
+        delta = {k: self.server.stats[k] - self.stats0[k] for k in self.stats0}
+        return {"label": self.label, "wall": wall, "cpu": cpu, "rss": rss, "peak": peak, **delta}
+
+    def close(self) -> None:
+        for proc in (self.client, self.sim):
+            proc.terminate()
+            proc.wait(10)
+        self.server.shutdown()
+
+
+class ThesisClient:
+    """The thesis' client loop: one fix per POST, a full GET every period, a connection each."""
+
+    def __init__(self) -> None:
+        self.server = serve()
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _request(self, method: str, path: str, body: bytes = b"") -> None:
+        conn = http.client.HTTPConnection("127.0.0.1", self.server.server_address[1], timeout=5)
+        headers = {"Content-Type": "application/json"} if body else {}
+        conn.request(method, path, body=body or None, headers=headers)
+        conn.getresponse().read()
+        conn.close()
+
+    def _run(self) -> None:
+        n = 0
+        while not self.stop.wait(TELEMETRY_PERIOD_S):
+            n += 1
+            fix = {"timestamp": int(time.time()), "latitude": -31.9505 + n * 1e-5,
+                   "longitude": 115.8605, "temperature": 301.3, "salinity": 35.5}  # fmt: skip
+            self._request("POST", "/spab/data.cgi", json.dumps(fix).encode())
+            self._request("GET", "/spab/requestCommands.cgi")
+
+    def begin(self) -> None:
+        self.t0, self.stats0 = time.monotonic(), dict(self.server.stats)
+
+    def end(self) -> dict:
+        wall = time.monotonic() - self.t0
+        delta = {k: self.server.stats[k] - self.stats0[k] for k in self.stats0}
+        return {"label": "thesis client: 1 fix/POST + full GET every 2 s", "wall": wall, **delta}
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join(5)
+        self.server.shutdown()
+
+
+def idle_baseline_mb() -> float:
+    code = ("import edge_client.client, edge_client.transports.http, edge_client.cli, time; "
+            "print('ok', flush=True); time.sleep(30)")  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE)  # fmt: skip
+    proc.stdout.readline()
+    time.sleep(0.5)
+    rss = rss_mb(proc.pid)[0]
+    proc.kill()
+    proc.wait()
+    return rss
+
+
+def per_hour(value: float, wall: float) -> float:
+    return value * 3600 / wall
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.edge", description=__doc__.split("\n")[0]
+    )
+    parser.add_argument("--duration", type=float, default=60.0, help="seconds measured (60)")
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = [
+            EdgeRun("edge client: HTTP + ETag, poll 2 s", 2.0, Path(tmp)),
+            EdgeRun("edge client: HTTP + ETag, poll 10 s (default)", 10.0, Path(tmp)),
+        ]
+        thesis = ThesisClient()
+        try:
+            time.sleep(WARMUP_S)
+            for r in [*runs, thesis]:
+                r.begin()
+            time.sleep(args.duration)
+            results = [r.end() for r in runs]
+            baseline = thesis.end()
+        finally:
+            for r in [*runs, thesis]:
+                r.close()
+    idle = idle_baseline_mb()
+
+    print(
+        f"Edge client footprint: simulator at {SIM_RATE_HZ:g} Hz, telemetry every "
+        f"{TELEMETRY_PERIOD_S:g} s, {args.duration:g} s measured after {WARMUP_S:g} s warm-up"
+    )
+    print()
+    print(f"{'process':48} {'RSS MB':>8} {'peak MB':>8} {'CPU % core':>11}")
+    print(f"{'idle python, same imports (baseline)':48} {idle:8.1f} {'':>8} {'':>11}")
+    for r in results:
+        print(f"{r['label']:48} {r['rss']:8.1f} {r['peak']:8.1f} {r['cpu']:11.2f}")
+    print(f"{'target':48} {TARGET_RSS_MB:8.0f} {'':>8} {TARGET_CPU_PCT:11.1f}")
+    print()
+    print("Bytes on the wire per hour (HTTP: request/status lines, headers, bodies)")
+    print(
+        f"{'client':48} {'up B/h':>9} {'down B/h':>9} {'total B/h':>10} {'req/h':>6} "
+        f"{'TCP conn/h':>10} {'fixes/h':>8} {'vs thesis':>9}"
+    )
+    base_total = per_hour(baseline["up"] + baseline["down"], baseline["wall"])
+    for r in [baseline, *results]:
+        total = per_hour(r["up"] + r["down"], r["wall"])
+        print(
+            f"{r['label']:48} {per_hour(r['up'], r['wall']):9.0f} "
+            f"{per_hour(r['down'], r['wall']):9.0f} {total:10.0f} "
+            f"{per_hour(r['requests'], r['wall']):6.0f} "
+            f"{per_hour(r['connections'], r['wall']):10.0f} "
+            f"{per_hour(r['fixes'], r['wall']):8.0f} {total / base_total:8.0%}"
+        )
+    ok = all(r["rss"] <= TARGET_RSS_MB and r["cpu"] <= TARGET_CPU_PCT for r in results)
+    print()
+    print("targets met" if ok else "TARGETS MISSED")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
