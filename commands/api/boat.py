@@ -10,6 +10,7 @@ from typing import Any
 
 from django.conf import settings
 from django.http import HttpResponseNotModified
+from django.utils.http import parse_etags
 from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import OpenApiParameter, extend_schema, inline_serializer
 from rest_framework import serializers, status
@@ -31,6 +32,16 @@ from vessels.permissions import IsBoat
 def commands_etag(vessel: Vessel) -> str:
     """Changes whenever the vessel's open command list does (Vessel.commands_version)."""
     return f'"c{vessel.pk}.{vessel.commands_version}"'
+
+
+def etag_matches(if_none_match: str | None, etag: str) -> bool:
+    """RFC 9110 §13.1.2: If-None-Match may list several tags and compares weakly, so a
+    proxy that weakened our tag (nginx does when it gzips) still earns the boat its 304."""
+    if not if_none_match:
+        return False
+    if if_none_match == etag:  # the common case, without parsing
+        return True
+    return any(tag.removeprefix("W/") == etag for tag in parse_etags(if_none_match))
 
 
 def command_wire(command: Command) -> dict[str, Any]:
@@ -93,7 +104,7 @@ class CommandListView(BoatView):
         # Read before listing: if a command arrives meanwhile, the tag is older than the list
         # and the boat just fetches once more; the other order could hide a command.
         etag = commands_etag(vessel)
-        if request.META.get("HTTP_IF_NONE_MATCH") == etag:
+        if etag_matches(request.META.get("HTTP_IF_NONE_MATCH"), etag):
             response = HttpResponseNotModified()
             response["ETag"] = etag
             return response

@@ -249,6 +249,15 @@ def test_operator_pages_keep_their_browser_headers(operator: APIClient) -> None:
     assert response["X-Content-Type-Options"] == "nosniff"
 
 
+@pytest.mark.parametrize("form", ["W/{tag}", '"other", {tag}', '"x",W/{tag}'])
+def test_a_weakened_or_listed_etag_still_matches(
+    boat_a: APIClient, command_a: Command, form: str
+) -> None:
+    etag = boat_a.get(COMMANDS)["ETag"]
+    response = boat_a.get(COMMANDS, HTTP_IF_NONE_MATCH=form.format(tag=etag))
+    assert response.status_code == 304
+
+
 def test_a_stale_or_foreign_etag_gets_the_full_list(
     boat_a: APIClient, boat_b: APIClient, vessel_a: Vessel, command_a: Command
 ) -> None:
