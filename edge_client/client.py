@@ -104,8 +104,10 @@ class EdgeClient:
         fix = self.link.state.fix()
         if fix is None:
             if not warned:
-                log.warning("no position from the autopilot yet; not recording fixes")
+                log.warning("no current position from the autopilot; not recording fixes")
             return True
+        if warned:
+            log.info("position from the autopilot again; recording fixes")
         evicted_total = self.outbox.counter("evicted_fixes")
         if evicted_total:
             fix["readings"]["edge_evicted_fixes"] = evicted_total  # reported to the shore

@@ -83,6 +83,7 @@ class VehicleState:
     readings: dict[str, float] = field(default_factory=dict)
     statustext: deque[str] = field(default_factory=lambda: deque(maxlen=20))
     last_heartbeat: float | None = None  # time.monotonic()
+    position_at: float | None = None  # time.monotonic() of the last GLOBAL_POSITION_INT fix
     was_silent: bool = False
     reconnects: int = 0
     reboots: int = 0
@@ -145,6 +146,7 @@ class VehicleState:
         if msg.lat == 0 and msg.lon == 0:
             return  # no position yet (ArduPilot sends zeros before its first GPS fix)
         self.lat, self.lon = msg.lat / 1e7, msg.lon / 1e7
+        self.position_at = time.monotonic()
         if msg.hdg != UINT16_UNKNOWN:
             self.heading_deg = msg.hdg / 100.0
         self.speed_mps = math.hypot(msg.vx, msg.vy) / 100.0
@@ -199,12 +201,17 @@ class VehicleState:
     def fix(self, wall_now: float | None = None) -> dict[str, Any] | None:
         """The current fix for ``POST boat/telemetry/``, or None without a position or a clock.
 
+        A position older than ``silent_after_s`` is not reported again under a new time: a
+        silent autopilot shows on the server as a vessel gone quiet, not one sitting still.
+
         ``time`` is Unix seconds rounded to the millisecond (DESIGN §5 accepts either that or
         ISO 8601; this is half the bytes). The server dedupes on (vessel, time), and the same
         number always maps to the same instant, so a re-sent fix is a harmless duplicate.
         """
-        lat, lon = self.lat, self.lon
-        if lat is None or lon is None:
+        lat, lon, position_at = self.lat, self.lon, self.position_at
+        if lat is None or lon is None or position_at is None:
+            return None
+        if time.monotonic() - position_at > self.silent_after_s:
             return None
         now = time.time() if wall_now is None else wall_now
         if now < CLOCK_SANE_AFTER:

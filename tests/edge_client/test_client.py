@@ -160,3 +160,27 @@ def test_polls_send_the_etag_and_new_commands_reach_the_executor(client, server)
     polls = [(etag) for m, p, etag, _ in server.log if p.endswith("/commands/")]
     assert polls == [None, '"v2"']
     assert client.executor._queue.qsize() == 1  # queued once, from the first poll only
+
+
+def test_check_says_both_links_are_fine(server, make_sim, capsys):
+    from edge_client.cli import main
+
+    sim = make_sim()
+    url = f"http://127.0.0.1:{server.server_address[1]}"
+    assert main(["check", "--server", url, "--key", "k", "--mavlink", sim.endpoint]) == 0
+    out = capsys.readouterr().out
+    assert "autopilot: OK  system 1" in out and "mode HOLD, disarmed" in out
+    assert "server: OK" in out and "0 command(s) waiting" in out
+
+
+def test_check_names_the_link_that_fails(server, capsys):
+    from edge_client.cli import main
+
+    server.respond = lambda m, p, b, h: (401, {}, {"error": "authentication_failed", "detail": ""})
+    url = f"http://127.0.0.1:{server.server_address[1]}"
+    argv = ["check", "--server", url, "--key", "bad", "--mavlink", "udpout:127.0.0.1:9",
+            "--timeout", "1"]  # fmt: skip
+    assert main(argv) == 1
+    out = capsys.readouterr().out
+    assert "autopilot: FAILED  no HEARTBEAT within 1 s on udpout:127.0.0.1:9" in out
+    assert "server: FAILED" in out and "refused the vessel key (HTTP 401" in out

@@ -56,9 +56,11 @@ def test_extra_readings_come_from_the_configured_message(make_sim):
 def test_a_silent_autopilot_is_noticed_and_so_is_its_return(make_sim, make_link):
     sim = make_sim()
     link = make_link(sim.endpoint, silent_after_s=1.0)
+    assert wait_for(lambda: link.state.fix() is not None)
     sim.sim.muted = True
     assert wait_for(lambda: not link.state.autopilot_ok())
     assert wait_for(lambda: link.state.was_silent)
+    assert wait_for(lambda: link.state.fix() is None)  # no stale position under a fresh time
     sim.sim.muted = False
     assert wait_for(lambda: link.state.autopilot_ok())
     assert link.state.reconnects == 1
