@@ -67,7 +67,8 @@ def database_from_url(url: str) -> dict[str, object]:
             "OPTIONS": options,
         }
     if parts.scheme == "sqlite":
-        return _sqlite(Path(unquote(parts.path)))
+        # sqlite:///relative.db and sqlite:////absolute/path.db, as dj-database-url reads them.
+        return _sqlite(Path(unquote(parts.path[1:])))
     raise ValueError(f"DATABASE_URL scheme {parts.scheme!r} is not supported (postgres or sqlite)")
 
 

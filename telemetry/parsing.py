@@ -179,7 +179,7 @@ def parse_fix(record: Any, *, now: dt.datetime, max_future_s: float = 300) -> Fi
 
 def legacy_time(raw: Any, *, now: dt.datetime, max_future_s: float) -> dt.datetime | None:
     """Legacy `timestamp`: Unix seconds, else 10 µs ticks since 2015, else None (implausible)."""
-    value = _number(raw)
+    value = _legacy_number(raw)
     if value is None:
         return None
     for interpret in (_from_unix_seconds, _from_legacy_ticks):
@@ -190,6 +190,16 @@ def legacy_time(raw: Any, *, now: dt.datetime, max_future_s: float) -> dt.dateti
             continue
         return when
     return None
+
+
+def _legacy_number(value: Any) -> float | None:
+    """A number, or a string holding one: the old clients built their JSON by hand."""
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            return None
+    return _number(value)
 
 
 def _from_unix_seconds(value: float) -> dt.datetime:
@@ -227,7 +237,7 @@ def parse_legacy_fix(
     recorded_at = legacy_time(record.get("timestamp"), now=now, max_future_s=max_future_s)
     if recorded_at is None:
         recorded_at = now + dt.timedelta(microseconds=index)
-        raw = _number(record.get("timestamp"))
+        raw = _legacy_number(record.get("timestamp"))
         if raw is not None:
             readings["timestamp_raw"] = raw
     if errors:

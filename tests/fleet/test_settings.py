@@ -87,7 +87,7 @@ def test_database_url_scheme_aliases(scheme: str) -> None:
 
 
 def test_database_from_a_sqlite_url() -> None:
-    db = database_from_url("sqlite:///var/lib/shoreside/db.sqlite3")
+    db = database_from_url("sqlite:////var/lib/shoreside/db.sqlite3")
     assert db["ENGINE"] == "django.db.backends.sqlite3"
     assert db["NAME"] == Path("/var/lib/shoreside/db.sqlite3")
     assert "journal_mode=WAL" in db["OPTIONS"]["init_command"]
@@ -238,3 +238,12 @@ def test_an_ambiguous_flag_stops_the_settings_import(tmp_path: Path) -> None:
     result = _import_settings(tmp_path, DEBUG="sometimes")
     assert result.returncode != 0
     assert "DEBUG='sometimes' is not a boolean" in result.stderr
+
+
+def test_sqlite_urls_read_like_dj_database_url() -> None:
+    from pathlib import Path
+
+    from fleet.settings import database_from_url
+
+    assert database_from_url("sqlite:////var/lib/shore.db")["NAME"] == Path("/var/lib/shore.db")
+    assert database_from_url("sqlite:///shore.db")["NAME"] == Path("shore.db")

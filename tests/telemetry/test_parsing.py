@@ -206,7 +206,7 @@ def test_it_reads_10_microsecond_ticks_since_2015() -> None:
 
 @pytest.mark.parametrize(
     "raw",
-    [123_456, 0, -1, 1e30, 4_102_444_800, "1536551550", None, True, float("nan"), 10**400],
+    [123_456, 0, -1, 1e30, 4_102_444_800, "x", None, True, float("nan"), 10**400],
 )
 def test_an_implausible_legacy_time_is_none(raw: Any) -> None:
     assert legacy_time(raw, now=NOW, max_future_s=300) is None
@@ -284,3 +284,11 @@ def test_parse_legacy_fix_raises_only_fix_errors(raw: Any, index: int) -> None:
         assert exc.errors
         return
     assert fix.recorded_at <= NOW + dt.timedelta(seconds=300)
+
+
+def test_a_legacy_timestamp_sent_as_a_string_is_still_read() -> None:
+    now = dt.datetime(2026, 11, 23, 12, 0, tzinfo=dt.UTC)
+    fix = parse_legacy_fix({"timestamp": "1536551550", "latitude": 1, "longitude": 2}, now=now)
+    assert fix.recorded_at == dt.datetime(2018, 9, 10, 3, 52, 30, tzinfo=dt.UTC)
+    odd = parse_legacy_fix({"timestamp": "12345", "latitude": 1, "longitude": 2}, now=now)
+    assert odd.recorded_at == now and odd.readings == {"timestamp_raw": 12345.0}
