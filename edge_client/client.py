@@ -18,6 +18,7 @@ shutdown only stops threads (an in-flight request is abandoned; its items stay q
 from __future__ import annotations
 
 import logging
+import sqlite3
 import threading
 import time
 from collections.abc import Callable
@@ -90,7 +91,10 @@ class EdgeClient:
                 now = time.monotonic()
                 if now >= next_sample:
                     next_sample = max(next_sample + self.config.telemetry.period_s, now)
-                    warned_no_fix = self.sample(warned_no_fix)
+                    try:
+                        warned_no_fix = self.sample(warned_no_fix)
+                    except sqlite3.Error as exc:  # disk full, card failing: log, keep running
+                        log.error("cannot store a fix in the outbox: %s", exc)
                 if watchdog_every and now >= next_watchdog and self.healthy():
                     systemd.watchdog()
                     next_watchdog = now + watchdog_every
@@ -143,7 +147,11 @@ class EdgeClient:
 
     def _uplink_loop(self) -> None:
         while not self.stop_event.is_set():
-            wait = self.uplink_once(time.monotonic())
+            try:
+                wait = self.uplink_once(time.monotonic())
+            except Exception:  # a bug or a broken outbox must not end the uplink for good
+                log.exception("uplink round failed")
+                wait = MAX_OUTAGE_BACKOFF_S
             self._kick.wait(wait)
             self._kick.clear()
 

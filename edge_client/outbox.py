@@ -49,6 +49,7 @@ CREATE TABLE IF NOT EXISTS commands (
 );
 """
 
+EVICTION_LOG_EVERY_S = 600.0
 # Remember finished command uids this long; the server stops offering a command once acked.
 COMMAND_MEMORY_S = 30 * 24 * 3600
 
@@ -110,6 +111,7 @@ class Outbox:
         if self.path != ":memory:":
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
+        self._eviction_logged = -EVICTION_LOG_EVERY_S
         # isolation_level=None: we issue BEGIN/COMMIT ourselves so each change is one transaction.
         self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
         self._db.execute("PRAGMA journal_mode=WAL")
@@ -163,8 +165,14 @@ class Outbox:
                     (excess,),
                 )
                 self._bump(db, "evicted_fixes", excess)
-        if excess > 0:
-            log.warning("outbox full (%d fixes): evicted the %d oldest", self.max_fixes, excess)
+        if excess > 0 and time.monotonic() - self._eviction_logged > EVICTION_LOG_EVERY_S:
+            # Once full, every new fix evicts one: say so now and then, not every period.
+            self._eviction_logged = time.monotonic()
+            log.warning(
+                "outbox full (%d fixes): evicting the oldest; %d evicted so far",
+                self.max_fixes,
+                self.counter("evicted_fixes"),
+            )
         return max(excess, 0)
 
     def add_ack(self, uid: str, status: str, detail: str = "") -> None:
