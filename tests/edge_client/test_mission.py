@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from edge_client.mission import (
     EXCHANGE_TIMEOUT_S,
     MAV_CMD_DO_JUMP,
@@ -145,3 +148,78 @@ def test_download_accepts_the_float_mission_item():
     f.update(x=m[0].x / 1e7, y=m[0].y / 1e7)
     down.handle("MISSION_ITEM", f, 0.2)
     assert down.ok and down.items[0].same_route(m[0])
+
+
+# -- property: any pattern of loss and duplication ends cleanly ------------------------------------
+
+
+class Receiver:
+    """A minimal autopilot side of an upload: requests items in order, re-requests on silence."""
+
+    RETRY_S = 0.5
+
+    def __init__(self) -> None:
+        self.count: int | None = None
+        self.items: list = []
+        self.asked_at = 0.0
+        self.done = False
+
+    def handle(self, out: Out, now: float) -> list[tuple[str, dict]]:
+        if out.type == "MISSION_COUNT":
+            self.count, self.items, self.done = out.fields["count"], [], False
+            return self._ask(now)
+        if out.type == "MISSION_ITEM_INT" and self.count is not None and not self.done:
+            if out.fields["seq"] != len(self.items):
+                return self._ask(now)
+            self.items.append(out.fields)
+            if len(self.items) == self.count:
+                self.done = True
+                return [ack(0)]
+            return self._ask(now)
+        return []
+
+    def poll(self, now: float) -> list[tuple[str, dict]]:
+        if self.count is not None and not self.done and now - self.asked_at > self.RETRY_S:
+            return self._ask(now)
+        return []
+
+    def _ask(self, now: float) -> list[tuple[str, dict]]:
+        self.asked_at = now
+        return [req(len(self.items), old=True)]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n_waypoints=st.integers(1, 6),
+    fate=st.lists(st.sampled_from(["ok", "ok", "ok", "drop", "dup"]), min_size=1, max_size=200),
+)
+def test_upload_with_any_loss_either_succeeds_with_every_item_or_gives_up(n_waypoints, fate):
+    m = build_mission((-31.9, 115.8), [{"lat": -31.9 - i / 1e3, "lon": 115.8} for i in range(
+        n_waypoints)])  # fmt: skip
+    up, rx = MissionUpload(m), Receiver()
+    fates = iter(fate)
+
+    def deliver(messages: list) -> list:
+        out = []
+        for msg in messages:
+            f = next(fates, "ok")
+            out += [] if f == "drop" else [msg] * (2 if f == "dup" else 1)
+        return out
+
+    now = 0.0
+    to_rx, to_up = deliver(up.start(now)), []
+    for _ in range(2000):
+        now += 0.05
+        for msg in to_rx:
+            to_up += deliver(rx.handle(msg, now))
+        to_rx = []
+        for msg_type, fields in to_up:
+            to_rx += deliver(up.handle(msg_type, fields, now))
+        to_up = deliver(rx.poll(now))
+        to_rx += deliver(up.poll(now))
+        if up.done:
+            break
+    assert up.done
+    if up.ok:
+        assert [f["seq"] for f in rx.items] == list(range(len(m)))
+        assert [item_out(i).fields for i in m] == rx.items
