@@ -93,9 +93,9 @@ def test_waypoint_carries_index_and_coordinates() -> None:
 @pytest.mark.parametrize(
     ("text", "reason"),
     [
-        ("fhead 360", "heading must be 0–359"),
-        ("fhead -1", "heading must be 0–359"),
-        ("fhead", "missing parameter 'heading'"),
+        ("fhead 360", "bearing must be 0–359"),
+        ("fhead -1", "bearing must be 0–359"),
+        ("fhead", "missing parameter 'bearing'"),
         ("fhead 1 2", "too many parameters"),
         ("fhead 12.5", "not a valid int"),
         ("light dim", "state must be one of on/off"),
@@ -188,6 +188,6 @@ def test_table_mistakes_are_named(extra: str, message: str) -> None:
 
 def test_parameters_can_be_given_by_name() -> None:
     table = InnerCommandTable.load()
-    assert table.encode("fhead", {"heading": 230}).packet == table.parse("fhead 230").packet
+    assert table.encode("fhead", {"bearing": 230}).packet == table.parse("fhead 230").packet
     with pytest.raises(CommandRefused, match="unexpected parameters"):
-        table.encode("fhead", {"heading": 1, "speed": 2})
+        table.encode("fhead", {"bearing": 1, "speed": 2})
