@@ -11,12 +11,15 @@ References (common.xml): HEARTBEAT, COMMAND_LONG / COMMAND_ACK (MAV_CMD_DO_SET_M
 MAV_CMD_COMPONENT_ARM_DISARM = 400, MAV_CMD_SET_MESSAGE_INTERVAL = 511,
 MAV_CMD_REQUEST_MESSAGE = 512), SET_POSITION_TARGET_GLOBAL_INT, MISSION_SET_CURRENT,
 REQUEST_DATA_STREAM (deprecated, still honoured by ArduPilot, needed by old firmware).
+
+MAVLink version: we start in MAVLink 1 (unless $MAVLINK20 is set) and pymavlink switches to
+MAVLink 2 as soon as the autopilot's first frame is a v2 one. Forcing v2 would leave an old
+v1-only firmware (like the APM2-era build in the thesis, seed §4.1) unable to parse us.
 """
 
 from __future__ import annotations
 
 import logging
-import os
 import queue
 import threading
 import time
@@ -24,13 +27,11 @@ from collections import defaultdict
 from collections.abc import Callable
 from typing import Any
 
-os.environ.setdefault("MAVLINK20", "1")  # before pymavlink is imported: speak MAVLink 2
+from pymavlink import mavutil
 
-from pymavlink import mavutil  # noqa: E402
-
-from edge_client.config import MavlinkConfig, ReadingSource  # noqa: E402
-from edge_client.mission import MissionDownload, MissionItem, MissionUpload, Out  # noqa: E402
-from edge_client.vehicle import ROVER_MODES, VehicleState  # noqa: E402
+from edge_client.config import MavlinkConfig, ReadingSource
+from edge_client.mission import MissionDownload, MissionItem, MissionUpload, Out
+from edge_client.vehicle import ROVER_MODES, VehicleState
 
 log = logging.getLogger(__name__)
 
