@@ -147,13 +147,14 @@ class EdgeClient:
 
     def _uplink_loop(self) -> None:
         while not self.stop_event.is_set():
+            # Cleared before the round, so an ack queued during it wakes the next one at once.
+            self._kick.clear()
             try:
                 wait = self.uplink_once(time.monotonic())
             except Exception:  # a bug or a broken outbox must not end the uplink for good
                 log.exception("uplink round failed")
                 wait = MAX_OUTAGE_BACKOFF_S
             self._kick.wait(wait)
-            self._kick.clear()
 
     def uplink_once(self, now: float) -> float:
         """One round: acks, fixes, poll if due. Returns how long to wait before the next round."""

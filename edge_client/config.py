@@ -78,6 +78,8 @@ class TelemetryConfig:
 
 @dataclass(frozen=True)
 class CommandsConfig:
+    # Poll for commands and send what the outbox holds (fixes in batches) this often: one
+    # uplink cadence keeps the modem/3G link idle in between.
     poll_period_s: float = 10.0
     arm_before_move: bool = True
     arm_timeout_s: float = 60.0
