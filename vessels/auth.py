@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import base64
-import binascii
 
 from django.http import HttpRequest
 from django.utils import timezone
@@ -97,7 +96,7 @@ def _from_basic(request: HttpRequest) -> tuple[str, str]:
         return "", ""
     try:
         slug, _, password = base64.b64decode(encoded, validate=True).decode().partition(":")
-    except (binascii.Error, UnicodeDecodeError):
+    except ValueError:  # binascii.Error, UnicodeDecodeError, or non-ASCII header text
         raise AuthenticationFailed("Malformed Basic credentials.") from None
     return slug, password
 

@@ -240,6 +240,8 @@ def test_it_takes_the_key_in_each_of_the_old_ways(key_a: str, vessel_a: Vessel, 
         ({"HTTP_API_KEY": "ssk_nope"}, "", "Invalid vessel key."),
         ({}, "?key=ssk_nope", "Invalid vessel key."),
         ({"HTTP_AUTHORIZATION": "Basic !!!"}, "", "Malformed Basic credentials."),
+        # Header values arrive as latin-1 text: base64 of non-ASCII raised ValueError (a 500).
+        ({"HTTP_AUTHORIZATION": "Basic é"}, "", "Malformed Basic credentials."),
     ],
 )
 @pytest.mark.parametrize("path", [DATA, COMMANDS])
