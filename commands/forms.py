@@ -12,6 +12,7 @@ from django import forms
 
 from commands import catalog
 from commands.models import Command
+from commands.services import CommandError, command_validate
 from vessels.models import Mission, Vessel
 
 
@@ -94,7 +95,15 @@ class CommandForm(forms.ModelForm):
             return cleaned
         try:
             kind = catalog.get_kind(kind_name)
-            valid = catalog.validate(kind_name, self._params(kind), vessel_kind=vessel.kind)
+            valid, _expires_at = command_validate(
+                vessel=vessel,
+                kind=kind_name,
+                params=self._params(kind),
+                expires_at=cleaned.get("expires_at"),
+            )
+        except CommandError as exc:
+            self.add_error(None, str(exc))
+            return cleaned
         except catalog.CatalogError as exc:
             target = field_name(kind_name, exc.field) if exc.field else None
             if exc.field == "mission":

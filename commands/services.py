@@ -84,6 +84,30 @@ def _transition(
     return True
 
 
+def command_validate(
+    *,
+    vessel: Vessel,
+    kind: str,
+    params: Any,
+    expires_at: dt.datetime | None = None,
+    now: dt.datetime | None = None,
+) -> tuple[catalog.ValidCommand, dt.datetime]:
+    """Every check :func:`command_enqueue` makes, without writing anything.
+
+    Returns the catalog-normalised command and the effective expiry; raises CatalogError or
+    CommandError. Forms call it from ``clean()`` so a refusal is a form error, not a 500.
+    """
+    now = now or timezone.now()
+    valid = catalog.validate(kind, params, vessel_kind=vessel.kind)
+    if not vessel.active:
+        raise CommandError(f"vessel {vessel.slug} is not active")
+    if expires_at is None:
+        expires_at = now + dt.timedelta(seconds=settings.COMMAND_DEFAULT_TTL_S)
+    elif expires_at <= now:
+        raise CommandError("expires_at must be in the future")
+    return valid, expires_at
+
+
 @transaction.atomic
 def command_enqueue(
     *,
@@ -101,13 +125,9 @@ def command_enqueue(
     the newest navigation order may reach the boat.
     """
     now = now or timezone.now()
-    valid = catalog.validate(kind, params, vessel_kind=vessel.kind)
-    if not vessel.active:
-        raise CommandError(f"vessel {vessel.slug} is not active")
-    if expires_at is None:
-        expires_at = now + dt.timedelta(seconds=settings.COMMAND_DEFAULT_TTL_S)
-    elif expires_at <= now:
-        raise CommandError("expires_at must be in the future")
+    valid, expires_at = command_validate(
+        vessel=vessel, kind=kind, params=params, expires_at=expires_at, now=now
+    )
     command = Command(
         vessel=vessel,
         kind=valid.kind,

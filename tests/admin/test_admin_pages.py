@@ -109,6 +109,22 @@ def test_the_command_form_refuses_what_the_catalog_refuses(admin_ui: Client, ves
     assert not Command.objects.exists()
 
 
+def test_the_command_form_refuses_what_the_service_refuses(admin_ui: Client,
+                                                          vessel_a: Vessel) -> None:
+    # command_enqueue's own rules (past expiry, inactive vessel) are form errors, not a 500.
+    past = admin_ui.post("/admin/commands/command/add/", {
+        "vessel": vessel_a.pk, "kind": "hold",
+        "expires_at_0": "2001-01-01", "expires_at_1": "00:00:00"})
+    assert past.status_code == 200
+    assert "expires_at must be in the future" in past.content.decode()
+    Vessel.objects.filter(pk=vessel_a.pk).update(active=False)
+    inactive = admin_ui.post("/admin/commands/command/add/", {
+        "vessel": vessel_a.pk, "kind": "hold"})
+    assert inactive.status_code == 200
+    assert "vessel spab is not active" in inactive.content.decode()
+    assert not Command.objects.exists()
+
+
 def test_the_command_form_sends_a_mission_and_glider_commands(admin_ui: Client, vessel_a: Vessel,
                                                               glider: Vessel) -> None:
     mission = mission_save(mission=Mission(name="loop", vessel=vessel_a))
