@@ -6,6 +6,7 @@ import datetime as dt
 from typing import Any
 
 from django.contrib import admin
+from django.contrib.admin.options import IncorrectLookupParameters
 from django.core.paginator import Paginator
 from django.db.models import QuerySet
 from django.http import HttpRequest
@@ -18,6 +19,7 @@ from vessels.models import Vessel
 
 # Counting past this is never worth a full scan: the admin shows "10000+" pages' worth.
 COUNT_CAP = 10_000
+BIGINT_MAX = 2**63 - 1
 
 
 class CappedCountPaginator(Paginator):
@@ -38,7 +40,17 @@ class VesselFilter(admin.SimpleListFilter):
         return [(v.pk, v.name) for v in Vessel.objects.order_by("name")]
 
     def queryset(self, request: HttpRequest, queryset: QuerySet[Fix]) -> QuerySet[Fix]:
-        return queryset.filter(vessel_id=self.value()) if self.value() else queryset
+        if not self.value():
+            return queryset
+        # A hand-edited URL must not be a 500: the admin answers IncorrectLookupParameters
+        # with its "?e=1" page. Bounded: SQLite cannot even bind an integer past 64 bits.
+        try:
+            vessel_id = int(self.value())
+        except ValueError:
+            raise IncorrectLookupParameters(f"vessel={self.value()!r}") from None
+        if not 0 < vessel_id <= BIGINT_MAX:
+            raise IncorrectLookupParameters(f"vessel={self.value()!r}")
+        return queryset.filter(vessel_id=vessel_id)
 
 
 class RecordedFilter(admin.SimpleListFilter):

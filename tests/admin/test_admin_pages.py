@@ -168,6 +168,13 @@ def test_the_fix_list_is_cheap_and_filterable(admin_ui: Client, reported: Vessel
     assert "Add fix" not in page
 
 
+@pytest.mark.parametrize("value", ["abc", "1.5", "99999999999999999999999"])
+def test_a_malformed_vessel_filter_is_not_a_500(admin_ui: Client, reported: Vessel,
+                                                value: str) -> None:
+    response = admin_ui.get(f"/admin/telemetry/fix/?vessel={value}")
+    assert response.status_code in (200, 302)
+
+
 def test_the_mission_admin_saves_items_in_order(admin_ui: Client, vessel_a: Vessel) -> None:
     data = {
         "name": "Survey", "vessel": vessel_a.pk, "notes": "",
