@@ -213,6 +213,9 @@ def command_claim_open(
             for command in queued:
                 if not _transition(command, Status.SENT, now=now, actor=actor):
                     command.refresh_from_db(fields=["status", "sent_at"])
+        # A lost race is either another poll (now sent: still offered) or a cancel,
+        # supersede or expiry that committed after the list was read: never hand that out.
+        commands = [c for c in commands if c.status in OPEN]
     return commands
 
 

@@ -182,6 +182,31 @@ def test_claiming_marks_queued_commands_sent_once_and_offers_them_again(vessel_a
     assert version(vessel_a) == before  # queued→sent leaves the boat's list unchanged
 
 
+def test_a_command_cancelled_while_a_poll_claims_it_is_not_handed_out(
+    vessel_a: Vessel, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The poll reads the queued list, then an operator's cancel commits before the poll's
+    # queued→sent UPDATE: the poll loses that race and must not give the boat the command.
+    from commands import services
+
+    real = services._transition
+    raced: list[Command] = []
+
+    def cancel_first(command: Command, target: Status, **kwargs: object) -> bool:
+        if target == Status.SENT and not raced:
+            raced.append(command)
+            command_cancel(command=Command.objects.get(pk=command.pk), actor="alice")
+        return real(command, target, **kwargs)
+
+    cancelled = command_enqueue(vessel=vessel_a, kind="arm", params={})
+    kept = command_enqueue(vessel=vessel_a, kind="disarm", params={})
+    monkeypatch.setattr(services, "_transition", cancel_first)
+    offered = command_claim_open(vessel=vessel_a)
+    assert [c.uid for c in offered] == [kept.uid]
+    cancelled.refresh_from_db()
+    assert events(cancelled) == [("", "queued"), ("queued", "cancelled")]
+
+
 def test_claiming_sees_only_this_vessels_open_commands(vessel_a: Vessel, vessel_b: Vessel) -> None:
     mine = move_to(vessel_a)
     move_to(vessel_b)
