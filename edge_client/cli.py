@@ -121,7 +121,7 @@ def run(config: Config, stop: threading.Event | None = None) -> int:
 
 def check(config: Config, timeout: float = 10.0) -> int:
     """Test both links once; print one line each and say which one fails."""
-    from edge_client.client import COMMANDS_PATH
+    from edge_client.client import TELEMETRY_PATH
     from edge_client.mavlink_link import MavlinkLink
     from edge_client.transports import TransportError, make_transport
 
@@ -146,12 +146,10 @@ def check(config: Config, timeout: float = 10.0) -> int:
         link.stop()
     transport = make_transport(config)
     try:
-        response = transport.get(COMMANDS_PATH)
-        waiting = len(response.json().get("commands", []))
-        print(
-            f"server: OK  {config.server.url} ({config.transport.kind}), "
-            f"{waiting} command(s) waiting"
-        )
+        # An empty batch proves the URL and the key without side effects: polling the
+        # commands instead would mark the boat's queued commands as sent.
+        transport.post_json(TELEMETRY_PATH, {"fixes": []})
+        print(f"server: OK  {config.server.url} ({config.transport.kind}), vessel key accepted")
     except TransportError as exc:
         ok = False
         if exc.status in (401, 403):

@@ -170,7 +170,9 @@ def test_check_says_both_links_are_fine(server, make_sim, capsys):
     assert main(["check", "--server", url, "--key", "k", "--mavlink", sim.endpoint]) == 0
     out = capsys.readouterr().out
     assert "autopilot: OK  system 1" in out and "mode HOLD, disarmed" in out
-    assert "server: OK" in out and "0 command(s) waiting" in out
+    assert "server: OK" in out and "vessel key accepted" in out
+    # The check leaves the boat's commands alone: no poll, just an empty telemetry batch.
+    assert [(m, p) for m, p, *_ in server.log] == [("POST", "/api/v1/boat/telemetry/")]
 
 
 def test_check_names_the_link_that_fails(server, capsys):
