@@ -405,6 +405,18 @@ def test_an_ack_with_malformed_json_is_a_400(boat_a: APIClient, command_a: Comma
     assert response.json()["error"] == "parse_error"
 
 
+# ~200 kB of brackets: Python's json raises RecursionError, which is no ValueError (a 500).
+DEEPLY_NESTED = "[" * 100_000 + "]" * 100_000
+
+
+@pytest.mark.parametrize("path", [TELEMETRY, ack_url("00000000-0000-4000-8000-000000000000")])
+def test_a_deeply_nested_body_is_a_400(boat_a: APIClient, path: str) -> None:
+    response = boat_a.post(path, DEEPLY_NESTED, content_type="application/json")
+    assert response.status_code == 400
+    assert response.json()["error"] == "parse_error"
+    assert "nested" in response.json()["detail"]
+
+
 @pytest.mark.parametrize("uid", ["not-a-uuid", "00000000-0000-4000-8000-000000000000"])
 def test_an_ack_for_an_unknown_uid_is_a_404(boat_a: APIClient, uid: str) -> None:
     response = boat_a.post(ack_url(uid), {"status": "done"}, format="json")

@@ -261,6 +261,14 @@ def test_missing_or_wrong_keys_get_a_401_telem_ack(
     assert not Fix.objects.exists()
 
 
+def test_a_deeply_nested_body_is_a_400_telem_ack(boat_a: APIClient) -> None:
+    body = "[" * 100_000 + "]" * 100_000
+    response = boat_a.post(DATA, body, content_type="application/json")
+    assert response.status_code == 400
+    success, message = telem_ack(response)
+    assert success == "false" and "nested" in message
+
+
 def test_basic_auth_with_another_vessels_slug_gets_401(key_a: str, vessel_b: Vessel) -> None:
     client = APIClient()
     client.credentials(HTTP_AUTHORIZATION=basic("spab-2", key_a))

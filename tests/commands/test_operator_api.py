@@ -360,6 +360,14 @@ def test_malformed_json_is_a_400(operator: APIClient, vessel_a: Vessel) -> None:
     assert response.json()["error"] == "parse_error"
 
 
+def test_a_deeply_nested_body_is_a_400(operator: APIClient, vessel_a: Vessel) -> None:
+    body = '{"kind": "hold", "params": ' + "[" * 100_000 + "]" * 100_000 + "}"
+    response = operator.post(commands_url(), body, content_type="application/json")
+    assert response.status_code == 400
+    assert response.json()["error"] == "parse_error"
+    assert not Command.objects.exists()
+
+
 def test_it_cancels_a_command(operator: APIClient, command_a: Command) -> None:
     response = operator.post(cancel_url(command_a.uid))
     assert response.status_code == 200
