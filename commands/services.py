@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import re
 import uuid
 from typing import Any
 
@@ -34,6 +35,10 @@ _LEAVES_BOAT_LIST = {
     Status.SUPERSEDED,
     Status.EXPIRED,
 }
+
+
+# NUL and the UTF-16 surrogate range: neither can be stored as text on PostgreSQL.
+_UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
 
 
 class CommandError(ValueError):
@@ -228,6 +233,12 @@ def _get_for_vessel(vessel: Vessel, uid: Any) -> Command:
         raise CommandNotFound(f"no command {uid} for this vessel") from None
 
 
+def _storable_text(text: str, limit: int = 2000) -> str:
+    """A boat's free text as the database can keep it: NUL (PostgreSQL refuses it) and lone
+    surrogates (valid JSON escapes, but not UTF-8) become U+FFFD rather than a 500."""
+    return _UNSTORABLE.sub("\ufffd", text[:limit])
+
+
 @transaction.atomic
 def command_ack(
     *,
@@ -256,7 +267,7 @@ def command_ack(
         if ack_is_stale(current, reported):
             return command, False
         check_transition(current, reported)  # raises TransitionError
-        if _transition(command, reported, now=now, actor="boat", detail=detail[:2000]):
+        if _transition(command, reported, now=now, actor="boat", detail=_storable_text(detail)):
             return command, True
         command.refresh_from_db()
     raise TransitionError(Status(command.status), reported)

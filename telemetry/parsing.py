@@ -43,6 +43,18 @@ class FixErrors(Exception):
         self.errors = errors
 
 
+def _shown(name: str) -> str:
+    """``name`` fit to echo in a JSON reply: a lone surrogate (a valid JSON escape, but not
+    Unicode) becomes its ``\\udXXX`` spelling instead of failing the reply's UTF-8 encoding."""
+    return name.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def _storable(name: str) -> bool:
+    """PostgreSQL's jsonb refuses NUL and lone surrogates (a whole INSERT fails with them);
+    SQLite would keep a surrogate and then every page showing the fix would fail to render."""
+    return "\x00" not in name and _shown(name) == name
+
+
 def _number(value: Any) -> float | None:
     """A finite float, or None when ``value`` is not a JSON number (bools are not numbers)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
@@ -135,8 +147,10 @@ def _readings(raw: Any, errors: dict[str, str]) -> dict[str, float]:
         number = _number(value)
         if len(name) > MAX_READING_NAME or not name:
             errors["readings"] = f"name {name[:20]!r} must be 1-{MAX_READING_NAME} characters"
+        elif not _storable(name):
+            errors["readings"] = f"name {name[:20]!r} holds a character that cannot be stored"
         elif number is None:
-            errors["readings"] = f"{name} must be a number"
+            errors["readings"] = f"{_shown(name)} must be a number"
         else:
             clean[name] = number
     return clean
@@ -149,7 +163,7 @@ def parse_fix(record: Any, *, now: dt.datetime, max_future_s: float = 300) -> Fi
     errors: dict[str, str] = {}
     unknown = sorted(set(record) - V1_FIELDS)
     if unknown:
-        errors[unknown[0]] = f"unknown field (allowed: {', '.join(sorted(V1_FIELDS))})"
+        errors[_shown(unknown[0])] = f"unknown field (allowed: {', '.join(sorted(V1_FIELDS))})"
     recorded_at = now
     if "time" not in record:
         errors["time"] = "is required"
@@ -230,7 +244,9 @@ def parse_legacy_fix(
         if name in {"timestamp", "latitude", "longitude"}:
             continue
         number = _number(value)
-        if number is None:
+        if not _storable(name):
+            errors[_shown(name)] = "name holds a character that cannot be stored"
+        elif number is None:
             errors[name] = "must be a number"
         elif len(name) <= MAX_READING_NAME:
             readings[name] = number

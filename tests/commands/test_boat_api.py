@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import datetime as dt
+import json
 from collections.abc import Callable
 from typing import Any
 
@@ -432,6 +433,21 @@ def test_the_ack_detail_is_kept_within_bounds(boat_a: APIClient, command_a: Comm
     assert len(command_a.result_detail) == 2000
 
 
+@pytest.mark.parametrize("text", ["ok\x00then", "ok\ud800then"])
+def test_an_ack_detail_the_database_cannot_store_is_kept_readable(
+    boat_a: APIClient, command_a: Command, text: str
+) -> None:
+    # NUL (PostgreSQL text refuses it) and a lone surrogate (not UTF-8 at all) were a 500.
+    boat_a.get(COMMANDS)
+    body = json.dumps({"status": "failed", "detail": text})
+    response = boat_a.post(ack_url(command_a.uid), body, content_type="application/json")
+    assert response.status_code == 200
+    command_a.refresh_from_db()
+    assert command_a.status == Status.FAILED
+    assert command_a.result_detail == "ok\ufffdthen"
+    assert command_a.events.last().detail == "ok\ufffdthen"
+
+
 # --- telemetry ---
 
 
@@ -595,6 +611,24 @@ def test_a_fix_that_is_not_an_object_is_rejected_by_index(
     assert body["accepted"] == 1
     assert [r["index"] for r in body["rejected"]] == [1, 2, 3]
     assert body["rejected"][0]["errors"] == {"non_field_errors": "each fix must be a JSON object"}
+
+
+@pytest.mark.parametrize("name", ["a\x00b", "a\ud800b"])
+def test_a_reading_name_the_database_cannot_store_costs_only_its_own_fix(
+    boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix, name: str
+) -> None:
+    # On PostgreSQL this failed the whole INSERT: a 500, and the good fix lost with it.
+    batch = [
+        make_fix(time="2026-11-23T09:00:00Z"),
+        make_fix(time="2026-11-23T09:00:01Z", readings={name: 1.0}),
+        make_fix(time="2026-11-23T09:00:02Z", **{name: 1.0}),
+    ]
+    body = json.dumps({"fixes": batch})
+    response = boat_a.post(TELEMETRY, body, content_type="application/json")
+    assert response.status_code == 200
+    assert response.json()["accepted"] == 1
+    assert [r["index"] for r in response.json()["rejected"]] == [1, 2]
+    assert vessel_a.fixes.count() == 1
 
 
 def test_the_good_fixes_of_a_mixed_batch_are_stored(

@@ -269,6 +269,18 @@ def test_a_deeply_nested_body_is_a_400_telem_ack(boat_a: APIClient) -> None:
     assert success == "false" and "nested" in message
 
 
+@pytest.mark.parametrize("name", ["a\x00b", "a\ud800b"])
+def test_a_reading_name_the_database_cannot_store_costs_only_its_own_record(
+    boat_a: APIClient, vessel_a: Vessel, name: str
+) -> None:
+    body = [LISTING_1[0], {**LISTING_1[1], name: 1.0}]
+    response = post(boat_a, body)
+    assert response.status_code == 200
+    success, message = telem_ack(response)
+    assert success == "false" and "accepted 1" in message and "record 1" in message
+    assert vessel_a.fixes.count() == 1
+
+
 def test_basic_auth_with_another_vessels_slug_gets_401(key_a: str, vessel_b: Vessel) -> None:
     client = APIClient()
     client.credentials(HTTP_AUTHORIZATION=basic("spab-2", key_a))

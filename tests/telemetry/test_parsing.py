@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 from typing import Any
 
 import pytest
@@ -171,6 +172,33 @@ def test_optional_values_may_be_null_or_missing() -> None:
 )
 def test_readings_must_be_named_numbers(readings: Any, message: str) -> None:
     assert errors_of(record(readings=readings)) == {"readings": message}
+
+
+# NUL is valid JSON but PostgreSQL's jsonb refuses it (the whole batch failed, a 500); a lone
+# surrogate ("\\ud800" is a valid JSON escape) is not even UTF-8: jsonb refuses it and, stored
+# on SQLite, it broke every page that renders the fix.
+UNSTORABLE = ["a\x00b", "a\ud800b"]
+
+
+@pytest.mark.parametrize("name", UNSTORABLE)
+def test_a_reading_name_that_cannot_be_stored_is_refused(name: str) -> None:
+    errors = errors_of(record(readings={name: 1.0}))
+    assert list(errors) == ["readings"]
+    assert "cannot be stored" in errors["readings"]
+    json.dumps(errors, ensure_ascii=False).encode()  # the reply can carry it
+
+
+@pytest.mark.parametrize("name", UNSTORABLE)
+def test_a_field_name_that_cannot_be_stored_is_named_safely(name: str) -> None:
+    unknown = errors_of(record(**{name: 1}))
+    bad_value = errors_of(record(readings={"t": "x", name: 1.0}))
+    legacy = pytest.raises(FixErrors, parse_legacy_fix,
+                           {"latitude": 1, "longitude": 1, name: 1.0}, now=NOW).value.errors
+    legacy_value = pytest.raises(FixErrors, parse_legacy_fix,
+                                 {"latitude": 1, "longitude": 1, name: "x"}, now=NOW).value.errors
+    for errors in (unknown, bad_value, legacy, legacy_value):
+        assert errors
+        json.dumps(errors, ensure_ascii=False).encode()
 
 
 # --- legacy records (thesis Listing 1) ---
