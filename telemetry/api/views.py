@@ -68,6 +68,15 @@ class _Echo:
         return value
 
 
+# A spreadsheet runs a cell starting with these as a formula (OWASP "CSV injection"); the
+# readings cell is text whose names come from the boat.
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def _no_formula(text: str) -> str:
+    return "'" + text if text.startswith(_FORMULA_START) else text
+
+
 def _csv_rows(fixes: Any) -> Iterator[str]:
     writer = csv.writer(_Echo())
     yield writer.writerow(CSV_COLUMNS)
@@ -80,7 +89,7 @@ def _csv_rows(fixes: Any) -> Iterator[str]:
                 fix.heading_deg,
                 fix.speed_mps,
                 fix.battery_v,
-                ";".join(f"{k}={v}" for k, v in sorted(fix.readings.items())),
+                _no_formula(";".join(f"{k}={v}" for k, v in sorted(fix.readings.items()))),
             ]
         )
 

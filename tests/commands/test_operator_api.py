@@ -259,6 +259,22 @@ def test_it_exports_fixes_as_csv(operator: APIClient, track: list) -> None:
     ]
 
 
+@pytest.mark.parametrize("name", ["=HYPERLINK(\"http://x\")", "+1", "@SUM(A1)", "-x"])
+def test_the_csv_export_never_starts_a_cell_with_a_formula(
+    operator: APIClient, vessel_a: Vessel, name: str
+) -> None:
+    # Reading names come from the boat: one must not become a formula in the operator's
+    # spreadsheet (CSV injection).
+    fix_ingest(
+        vessel=vessel_a,
+        records=[{"time": "2026-11-23T08:00:00Z", "lat": 1.0, "lon": 2.0, "readings": {name: 1}}],
+    )
+    response = operator.get(fixes_url() + "?format=csv")
+    cells = b"".join(response.streaming_content).decode().splitlines()[1].split(",", 6)
+    assert cells[6].strip('"').startswith("'")
+    assert cells[1:3] == ["1.0", "2.0"]
+
+
 # --- commands ---
 
 
