@@ -12,7 +12,15 @@ from django.db import transaction
 from django.utils import timezone
 
 from commands import catalog
-from commands.lifecycle import OPEN, Status, TransitionError, ack_is_stale, check_transition
+from commands.lifecycle import (
+    ACK_STATUSES,
+    FINAL,
+    OPEN,
+    Status,
+    TransitionError,
+    ack_is_stale,
+    check_transition,
+)
 from commands.models import Command, CommandEvent, Source
 from vessels.models import Vessel
 from vessels.services import vessel_bump_commands_version
@@ -27,14 +35,8 @@ _STAMP = {
     Status.SUPERSEDED: "finished_at",
     Status.EXPIRED: "finished_at",
 }
-_LEAVES_BOAT_LIST = {
-    Status.ACKNOWLEDGED,
-    Status.DONE,
-    Status.FAILED,
-    Status.CANCELLED,
-    Status.SUPERSEDED,
-    Status.EXPIRED,
-}
+# The boat poll lists the OPEN statuses; moving to any other changes its list (and ETag).
+_LEAVES_BOAT_LIST = frozenset(Status) - frozenset(OPEN)
 
 
 # NUL and the UTF-16 surrogate range: neither can be stored as text on PostgreSQL.
@@ -63,13 +65,7 @@ def _transition(
     changes: dict[str, Any] = {"status": target.value}
     if stamp := _STAMP.get(target):
         changes[stamp] = now
-    if detail and target in {
-        Status.DONE,
-        Status.FAILED,
-        Status.CANCELLED,
-        Status.EXPIRED,
-        Status.SUPERSEDED,
-    }:
+    if detail and target in FINAL:
         changes["result_detail"] = detail
     won = Command.objects.filter(pk=command.pk, status=current.value).update(**changes) == 1
     if not won:
@@ -259,7 +255,7 @@ def command_ack(
         reported = Status(status)
     except ValueError:
         reported = None
-    if reported not in {Status.ACKNOWLEDGED, Status.DONE, Status.FAILED}:
+    if reported not in ACK_STATUSES:
         raise CommandError("status must be acknowledged, done or failed")
     command = _get_for_vessel(vessel, uid)
     for _attempt in range(3):

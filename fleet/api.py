@@ -31,10 +31,6 @@ class Conflict(exceptions.APIException):
     default_detail = "The request conflicts with the current state."
 
 
-def error_response(code: str, detail: Any, status_code: int) -> Response:
-    return Response({"error": code, "detail": detail}, status=status_code)
-
-
 def exception_handler(exc: Exception, context: dict[str, Any]) -> Response | None:
     if isinstance(exc, DjangoValidationError):
         detail = exc.message_dict if hasattr(exc, "error_dict") else exc.messages
