@@ -8,7 +8,7 @@ import uuid
 from typing import Any
 
 from django.conf import settings
-from django.db import transaction
+from django.db import connection, transaction
 from django.utils import timezone
 
 from commands import catalog
@@ -38,6 +38,9 @@ _STAMP = {
 # The boat poll lists the OPEN statuses; moving to any other changes its list (and ETag).
 _LEAVES_BOAT_LIST = frozenset(Status) - frozenset(OPEN)
 
+
+# First key of the two-key PostgreSQL advisory lock that serialises navigation enqueues.
+_ENQUEUE_LOCK_SPACE = 0x5353  # "SS", Shoreside
 
 # NUL and the UTF-16 surrogate range: neither can be stored as text on PostgreSQL.
 _UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
@@ -129,6 +132,8 @@ def command_enqueue(
     valid, expires_at = command_validate(
         vessel=vessel, kind=kind, params=params, expires_at=expires_at, now=now
     )
+    if valid.navigation:
+        _serialise_navigation_enqueues(vessel.pk)
     command = Command(
         vessel=vessel,
         kind=valid.kind,
@@ -151,6 +156,23 @@ def command_enqueue(
         _supersede_older_navigation(command, now)
     vessel_bump_commands_version(vessel_id=vessel.pk)
     return command
+
+
+def _serialise_navigation_enqueues(vessel_id: int) -> None:
+    """Make racing navigation enqueues for one vessel take turns, until the transaction ends.
+
+    Under PostgreSQL's READ COMMITTED, two racing enqueues each looked for older queued
+    navigation commands before the other had committed, and both stayed queued. A row lock
+    on the vessel would invert the lock order of cancel/ack (command row, then the vessel's
+    commands_version) and deadlock with them; an advisory lock only enqueues take cannot.
+    SQLite needs nothing: its IMMEDIATE transactions already run one at a time.
+    """
+    if connection.vendor == "postgresql":
+        with connection.cursor() as cursor:
+            cursor.execute(
+                "SELECT pg_advisory_xact_lock(%s, %s)",
+                [_ENQUEUE_LOCK_SPACE, vessel_id & 0x7FFFFFFF],
+            )
 
 
 def _supersede_older_navigation(command: Command, now: dt.datetime) -> None:

@@ -121,6 +121,40 @@ def test_a_poll_racing_a_cancel_leaves_one_consistent_history(racing_vessel: Ves
         assert command.status == Status.CANCELLED
 
 
+@pytest.mark.django_db(transaction=True)
+def test_racing_navigation_commands_leave_only_the_newest_queued(
+    racing_vessel: Vessel, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Two operators queue a move_to at once. Under PostgreSQL's READ COMMITTED each enqueue
+    # looked for older queued navigation commands before the other had committed, so both
+    # stayed queued. The barrier holds each enqueue just before that look: when enqueues
+    # are serialised per vessel, the second never gets there while the first waits, the
+    # barrier times out and the first goes on alone.
+    from commands import services
+
+    barrier = threading.Barrier(2)
+    real = services._supersede_older_navigation
+
+    def meet_then_supersede(command: Command, now: Any) -> None:
+        try:
+            barrier.wait(timeout=2)
+        except threading.BrokenBarrierError:
+            pass
+        real(command, now)
+
+    monkeypatch.setattr(services, "_supersede_older_navigation", meet_then_supersede)
+    race(
+        *[
+            lambda lat=lat: command_enqueue(
+                vessel=racing_vessel, kind="move_to", params={"lat": lat, "lon": 115.8}
+            )
+            for lat in (-31.0, -32.0)
+        ]
+    )
+    statuses = sorted(Command.objects.values_list("status", flat=True))
+    assert statuses == [Status.QUEUED, Status.SUPERSEDED]
+
+
 def test_the_suite_is_on_a_database_that_can_race() -> None:
     # An in-memory SQLite database is one per connection: the threads would not share it.
     if connection.vendor == "sqlite":
