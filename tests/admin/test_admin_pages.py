@@ -187,6 +187,37 @@ def test_the_mission_admin_saves_items_in_order(admin_ui: Client, vessel_a: Vess
     assert [(i.seq, i.lat) for i in mission.items.all()] == [(1, -31.90), (2, -31.91)]
 
 
+def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(
+        admin_ui: Client, vessel_a: Vessel, glider: Vessel) -> None:
+    ready = mission_save(mission=Mission(name="Ready", vessel=vessel_a, loop=True))
+    mission_save_items(mission=ready, items=[{"lat": -31.9, "lon": 115.8, "radius_m": 5}])
+    template = mission_save(mission=Mission(name="Template"))
+    for_glider = mission_save(mission=Mission(name="Glider run", vessel=glider))
+    mission_save_items(mission=for_glider, items=[{"lat": -32.0, "lon": 115.3}])
+    response = admin_ui.post("/admin/vessels/mission/", {
+        "action": "send_to_vessel",
+        "_selected_action": [ready.pk, template.pk, for_glider.pk]}, follow=True)
+    page = response.content.decode()
+    assert "Template: a template has no vessel" in page
+    assert "Glider run: mission is not available for wave_glider vessels" in page
+    command = Command.objects.get()
+    assert (command.vessel, command.kind, command.source) == (vessel_a, "mission", "admin")
+    assert command.params == {"mission_id": ready.pk, "loop": True, "items": [
+        {"lat": -31.9, "lon": 115.8, "hold_s": 0.0, "radius_m": 5.0}]}
+
+
+def test_a_sensor_channel_is_added_and_validated_in_the_admin(admin_ui: Client) -> None:
+    from telemetry.models import SensorChannel
+
+    bad = admin_ui.post("/admin/telemetry/sensorchannel/add/",
+                        {"key": "water temp", "label": "Water", "unit": "°C"})
+    assert bad.status_code == 200 and not SensorChannel.objects.exists()
+    good = admin_ui.post("/admin/telemetry/sensorchannel/add/", {
+        "key": "water_temp_c", "label": "Water", "unit": "°C", "minimum": 10, "maximum": 30})
+    assert good.status_code == 302
+    assert SensorChannel.objects.get().key == "water_temp_c"
+
+
 @pytest.mark.parametrize("url", [
     "/admin/", "/admin/vessels/vessel/add/", "/admin/vessels/mission/",
     "/admin/telemetry/sensorchannel/", "/admin/commands/command/",
