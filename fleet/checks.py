@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import sqlite3
 from typing import Any
 
 from django.conf import settings
 from django.core.checks import Error, Tags, Warning, register
+
+# telemetry.services.fix_ingest uses INSERT … ON CONFLICT DO NOTHING RETURNING (SQLite 3.35).
+SQLITE_MIN = (3, 35)
 
 _LOCAL_HOSTS = {"localhost", "127.0.0.1", "[::1]", "::1", ".localhost"}
 
@@ -70,3 +74,22 @@ def check_production_safety(app_configs: Any = None, **kwargs: Any) -> list[Erro
                 )
             )
     return problems
+
+
+@register(Tags.compatibility)
+def check_sqlite_version(app_configs: Any = None, **kwargs: Any) -> list[Error]:
+    """Django runs on SQLite 3.31, but every fix ingest would fail below 3.35."""
+    uses_sqlite = any(
+        db["ENGINE"] == "django.db.backends.sqlite3" for db in settings.DATABASES.values()
+    )
+    if not uses_sqlite or sqlite3.sqlite_version_info >= SQLITE_MIN:
+        return []
+    found = ".".join(str(n) for n in sqlite3.sqlite_version_info)
+    return [
+        Error(
+            f"SQLite {found} is too old: the fix ingest needs {SQLITE_MIN[0]}.{SQLITE_MIN[1]} "
+            "or newer (INSERT … RETURNING).",
+            hint="Use a Python built against a newer SQLite, or set DATABASE_URL to PostgreSQL.",
+            id="fleet.E006",
+        )
+    ]

@@ -240,6 +240,17 @@ def test_an_ambiguous_flag_stops_the_settings_import(tmp_path: Path) -> None:
     assert "DEBUG='sometimes' is not a boolean" in result.stderr
 
 
+def test_e006_sqlite_too_old_for_the_fix_ingest(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The fix ingest's INSERT … RETURNING needs SQLite 3.35; Django itself runs on 3.31.
+    import fleet.checks
+
+    assert not fleet.checks.check_sqlite_version()  # this machine's SQLite
+    monkeypatch.setattr(fleet.checks.sqlite3, "sqlite_version_info", (3, 34, 1))
+    problems = fleet.checks.check_sqlite_version()
+    assert [p.id for p in problems] == ["fleet.E006"]
+    assert "3.34.1" in problems[0].msg
+
+
 def test_sqlite_urls_read_like_dj_database_url() -> None:
     from pathlib import Path
 
