@@ -2,6 +2,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from django.core.exceptions import ValidationError
 from django.core.management.base import BaseCommand, CommandError, CommandParser
 
 from vessels.models import Vessel
@@ -20,6 +21,11 @@ class Command(BaseCommand):
             vessel = Vessel.objects.get(slug=opts["slug"])
         except Vessel.DoesNotExist:
             raise CommandError(f"no vessel {opts['slug']!r}") from None
-        key, raw = vessel_key_issue(vessel=vessel, label=opts["label"], created_by="manage.py")
+        try:
+            key, raw = vessel_key_issue(vessel=vessel, label=opts["label"], created_by="manage.py")
+        except ValidationError as exc:
+            raise CommandError(
+                "; ".join(f"{k}: {' '.join(v)}" for k, v in exc.message_dict.items())
+            ) from None
         self.stderr.write(f"key {key.prefix}… for {vessel.slug}; it is not shown again:")
         self.stdout.write(raw)
