@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
@@ -244,11 +245,17 @@ def test_e006_sqlite_too_old_for_the_fix_ingest(monkeypatch: pytest.MonkeyPatch)
     # The fix ingest's INSERT … RETURNING needs SQLite 3.35; Django itself runs on 3.31.
     import fleet.checks
 
+    assert not fleet.checks.check_sqlite_version()  # this machine's database
+    sqlite = {"default": {"ENGINE": "django.db.backends.sqlite3"}}
+    monkeypatch.setattr(fleet.checks, "settings", SimpleNamespace(DATABASES=sqlite))
     assert not fleet.checks.check_sqlite_version()  # this machine's SQLite
     monkeypatch.setattr(fleet.checks.sqlite3, "sqlite_version_info", (3, 34, 1))
     problems = fleet.checks.check_sqlite_version()
     assert [p.id for p in problems] == ["fleet.E006"]
     assert "3.34.1" in problems[0].msg
+    postgres = {"default": {"ENGINE": "django.db.backends.postgresql"}}
+    monkeypatch.setattr(fleet.checks, "settings", SimpleNamespace(DATABASES=postgres))
+    assert not fleet.checks.check_sqlite_version()
 
 
 def test_sqlite_urls_read_like_dj_database_url() -> None:
