@@ -76,6 +76,9 @@ def _sqlite(path: Path) -> dict[str, object]:
     return {
         "ENGINE": "django.db.backends.sqlite3",
         "NAME": path,
+        # Reconnecting per request would re-run the PRAGMAs below on every boat poll.
+        "CONN_MAX_AGE": env_int("DB_CONN_MAX_AGE", 600),
+        "CONN_HEALTH_CHECKS": True,
         "OPTIONS": {
             # Seconds a writer waits for the lock before "database is locked".
             "timeout": 20,

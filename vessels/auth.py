@@ -13,6 +13,7 @@ from rest_framework.request import Request
 
 from vessels.keys import hash_key
 from vessels.models import Vessel, VesselKey
+from vessels.selectors import vessel_key_by_hash
 from vessels.services import vessel_key_touch
 
 SCHEME = "Api-Key"
@@ -41,10 +42,9 @@ def key_lookup(raw_key: str) -> VesselKey:
     """The active key matching ``raw_key``, with its vessel; raises AuthenticationFailed."""
     if not raw_key or len(raw_key) > 200:
         raise AuthenticationFailed("Invalid vessel key.")
-    try:
-        key = VesselKey.objects.select_related("vessel").get(key_hash=hash_key(raw_key))
-    except VesselKey.DoesNotExist:
-        raise AuthenticationFailed("Invalid vessel key.") from None
+    key = vessel_key_by_hash(hash_key(raw_key))
+    if key is None:
+        raise AuthenticationFailed("Invalid vessel key.")
     if key.revoked_at is not None:
         raise AuthenticationFailed("This vessel key has been revoked.")
     if not key.vessel.active:
