@@ -57,13 +57,17 @@ def _storable(name: str) -> bool:
 
 def _number(value: Any) -> float | None:
     """A finite float, or None when ``value`` is not a JSON number (bools are not numbers)."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    # Exact type checks: the JSON decoder makes only these, `type(True)` is bool, not int,
+    # and this runs eight times per fix in the ingest's hot loop.
+    kind = type(value)
+    if kind is float:
+        return value if math.isfinite(value) else None
+    if kind is not int:
         return None
     try:
-        number = float(value)
+        return float(value)
     except OverflowError:  # JSON integers have no size limit; 10**400 is no coordinate
         return None
-    return number if math.isfinite(number) else None
 
 
 def parse_time(value: Any, *, now: dt.datetime, max_future_s: float) -> dt.datetime:
