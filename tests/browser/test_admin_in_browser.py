@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from django.contrib.auth.models import User
 from selenium.webdriver.common.by import By
-from selenium.webdriver.support.ui import Select
+from selenium.webdriver.support.ui import Select, WebDriverWait
 
 from commands.models import Command
 from telemetry.services import fix_ingest
@@ -30,6 +30,8 @@ def log_in(browser, live_server, user: User) -> None:
     browser.find_element(By.NAME, "username").send_keys(user.username)
     browser.find_element(By.NAME, "password").send_keys("pw-" + user.username)
     browser.find_element(By.CSS_SELECTOR, "input[type=submit]").click()
+    # click() may return before the POST is answered; under load the next get() raced it.
+    WebDriverWait(browser, 20).until(lambda b: "/admin/login/" not in b.current_url)
 
 
 def visible(browser, name: str) -> bool:
@@ -54,6 +56,8 @@ def test_an_operator_logs_in_and_queues_a_move_to(browser, live_server, operator
     browser.find_element(By.NAME, "move_to__lon").send_keys("115.85")
     shot(browser, "command-form")
     browser.find_element(By.NAME, "_save").click()
+    # Wait for the answer before reading the database (Command.objects.get() raced the POST).
+    WebDriverWait(browser, 20).until(lambda b: "/add/" not in b.current_url)
 
     command = Command.objects.get()
     assert (command.vessel, command.kind, command.params) == (
