@@ -98,6 +98,10 @@ class CommandAdmin(admin.ModelAdmin):
         # Commands are never edited; only queued (add) or cancelled (action).
         return obj is None and super().has_change_permission(request, obj)
 
+    def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        # Deleting would erase the transition history (DESIGN §3: logs stay, read-only).
+        return False
+
     def save_model(self, request: HttpRequest, obj: Command, form: Any, change: bool) -> None:
         created = command_enqueue(
             vessel=form.cleaned_data["vessel"],

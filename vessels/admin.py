@@ -205,6 +205,10 @@ class VesselKeyAdmin(admin.ModelAdmin):
         # Keys are issued and revoked, never edited; the revoke action needs this permission.
         return obj is None and super().has_change_permission(request, obj)
 
+    def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        # Revoke (a service) instead: a deleted key takes its usage record with it.
+        return False
+
     def save_model(self, request: HttpRequest, obj: VesselKey, form: Any, change: bool) -> None:
         key, raw = vessel_key_issue(
             vessel=obj.vessel, label=obj.label, created_by=request.user.get_username()
@@ -266,8 +270,9 @@ class MissionAdmin(admin.ModelAdmin):
         items.sort(key=lambda row: row["seq"])
         mission_save_items(mission=form.instance, items=items)
 
-    def construct_change_message(self, request: HttpRequest, form: Any, formsets: Any,
-                                 add: bool) -> Any:
+    def construct_change_message(
+        self, request: HttpRequest, form: Any, formsets: Any, add: bool
+    ) -> Any:
         # The item formsets were not saved as formsets (mission_save_items wrote the rows).
         return super().construct_change_message(request, form, [], add)
 

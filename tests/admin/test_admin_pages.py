@@ -160,6 +160,19 @@ def test_a_command_page_is_read_only_with_its_history(admin_ui: Client, vessel_a
     assert CommandEvent.objects.filter(command=command).count() == 2
 
 
+def test_commands_and_keys_are_never_deleted_from_the_admin(admin_ui: Client, vessel_a: Vessel,
+                                                           key_a: str) -> None:
+    # Their history is the audit trail: a command is cancelled, a key revoked (services).
+    command = command_enqueue(vessel=vessel_a, kind="hold", params={})
+    key = VesselKey.objects.get()
+    for model, pk in (("commands/command", command.pk), ("vessels/vesselkey", key.pk)):
+        assert admin_ui.get(f"/admin/{model}/{pk}/delete/").status_code == 403
+        changelist = admin_ui.get(f"/admin/{model}/").content.decode()
+        assert 'value="delete_selected"' not in changelist
+    assert Command.objects.filter(pk=command.pk).exists()
+    assert VesselKey.objects.filter(pk=key.pk).exists()
+
+
 def test_the_fix_list_is_cheap_and_filterable(admin_ui: Client, reported: Vessel,
                                               vessel_b: Vessel) -> None:
     page = admin_ui.get(f"/admin/telemetry/fix/?vessel={reported.pk}").content.decode()
