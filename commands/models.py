@@ -48,10 +48,6 @@ class Command(models.Model):
     def __str__(self) -> str:
         return f"{self.kind} → {self.vessel_id} ({self.status})"
 
-    @property
-    def is_open(self) -> bool:
-        return self.status in OPEN
-
 
 class CommandEvent(models.Model):
     """One status transition of a command: when, from what, to what, and why."""

@@ -108,6 +108,13 @@ DEBUG = env_bool("DEBUG", False)
 PRODUCTION = env_bool("PRODUCTION", False)
 
 
+def write_private(path: Path, text: str) -> None:
+    """Write a file only its owner can read, from the first byte (no chmod-after window)."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w") as handle:
+        handle.write(text)
+
+
 def _secret_key() -> str:
     key = os.environ.get("SECRET_KEY", "")
     if key:
@@ -120,8 +127,7 @@ def _secret_key() -> str:
     DATA_DIR.mkdir(parents=True, exist_ok=True)
     path = DATA_DIR / "secret_key"
     if not path.exists():
-        path.write_text(secrets.token_urlsafe(50))
-        path.chmod(0o600)
+        write_private(path, secrets.token_urlsafe(50))
     return path.read_text().strip()
 
 
@@ -216,6 +222,9 @@ LOGIN_URL = "admin:login"
 
 # Production transport security; DEBUG/local development keeps plain HTTP usable.
 SECURE_SSL_REDIRECT = env_bool("SECURE_SSL_REDIRECT", PRODUCTION)
+# The thesis' F2414 modem speaks plain TCP only and cannot follow a redirect to HTTPS: the
+# legacy SPAB endpoints stay reachable over HTTP unless LEGACY_PLAIN_HTTP=0.
+SECURE_REDIRECT_EXEMPT = [r"^spab/"] if env_bool("LEGACY_PLAIN_HTTP", True) else []
 SESSION_COOKIE_SECURE = env_bool("SESSION_COOKIE_SECURE", PRODUCTION)
 CSRF_COOKIE_SECURE = env_bool("CSRF_COOKIE_SECURE", PRODUCTION)
 SECURE_HSTS_SECONDS = env_int("SECURE_HSTS_SECONDS", 31536000 if PRODUCTION else 0)

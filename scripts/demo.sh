@@ -14,7 +14,7 @@ key_of() { $py -c "import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[
 pids=()
 cleanup() { kill "${pids[@]}" 2>/dev/null || true; }
 trap cleanup EXIT INT TERM
-$py -m gunicorn fleet.wsgi -b "127.0.0.1:$PORT" -w 2 --threads 4 --access-logfile - &
+$py -m gunicorn fleet.wsgi -b "127.0.0.1:$PORT" -w 2 --threads 4 &
 pids+=($!)
 sleep 2
 $py manage.py simulate_boat --server "http://127.0.0.1:$PORT" --key "$(key_of spab)" \

@@ -103,6 +103,13 @@ class VesselAdmin(admin.ModelAdmin):
     def get_inlines(self, request: HttpRequest, obj: Vessel | None) -> list[Any]:
         return self.inlines if obj else []
 
+    # The slug is the vessel's stable id: boats (legacy Basic auth) and URLs use it.
+    def get_readonly_fields(self, request: HttpRequest, obj: Vessel | None = None) -> Any:
+        return [*self.readonly_fields, "slug"] if obj else self.readonly_fields
+
+    def get_prepopulated_fields(self, request: HttpRequest, obj: Vessel | None = None) -> Any:
+        return {} if obj else self.prepopulated_fields
+
     def save_model(self, request: HttpRequest, obj: Vessel, form: Any, change: bool) -> None:
         vessel_save(vessel=obj)
 

@@ -255,3 +255,12 @@ def test_an_operator_without_permission_cannot_queue(client: Client, readonly_us
 def test_operators_and_their_api_tokens_are_managed_in_the_admin(admin_ui: Client,
                                                                  url: str) -> None:
     assert admin_ui.get(url).status_code == 200
+
+
+def test_a_vessels_slug_cannot_be_changed_once_created(admin_ui: Client, vessel_a: Vessel) -> None:
+    admin_ui.post(f"/admin/vessels/vessel/{vessel_a.pk}/change/", {
+        "name": "Renamed", "slug": "other", "kind": "mavlink", "active": "on",
+        "telemetry_period_s": 10, "notes": "", "keys-TOTAL_FORMS": 0, "keys-INITIAL_FORMS": 0,
+    })
+    vessel_a.refresh_from_db()
+    assert (vessel_a.name, vessel_a.slug) == ("Renamed", "spab")

@@ -265,3 +265,18 @@ def test_sqlite_urls_read_like_dj_database_url() -> None:
 
     assert database_from_url("sqlite:////var/lib/shore.db")["NAME"] == Path("/var/lib/shore.db")
     assert database_from_url("sqlite:///shore.db")["NAME"] == Path("shore.db")
+
+
+def test_the_generated_secret_key_file_is_private_from_the_start(tmp_path) -> None:
+    from fleet.settings import write_private
+
+    path = tmp_path / "secret_key"
+    write_private(path, "s3cret")
+    assert path.read_text() == "s3cret"
+    assert oct(path.stat().st_mode & 0o777) == "0o600"
+
+
+def test_legacy_endpoints_stay_on_plain_http_under_the_https_redirect(client, settings) -> None:
+    settings.SECURE_SSL_REDIRECT = True
+    assert client.get("/admin/login/").status_code == 301
+    assert client.get("/spab/requestCommands.cgi").status_code == 401  # answered, not redirected

@@ -16,6 +16,7 @@ from django.utils import timezone
 
 from commands.models import Source
 from commands.services import command_ack, command_claim_open, command_enqueue
+from fleet.settings import write_private
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from vessels.models import Mission, Vessel
@@ -87,8 +88,8 @@ class Command(BaseCommand):
         self.demo_commands(user)
         path = Path(opts["keys_file"])
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(keys, indent=1))
-        path.chmod(0o600)
+        path.unlink(missing_ok=True)  # recreated private; os.open keeps an old file's mode
+        write_private(path, json.dumps(keys, indent=1))
         self.stdout.write(self.style.SUCCESS("Demo fleet ready."))
         self.stdout.write(f"  Log in at /admin/ as  user: {user.username}  password: {password}")
         self.stdout.write(f"  Vessel keys (new ones, shown once) are in {path}")
