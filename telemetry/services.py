@@ -104,11 +104,13 @@ def _insert_new(vessel_id: int, fixes: list[FixData], now: dt.datetime) -> list[
     return inserted
 
 
+@functools.cache
 def _insert_head() -> str:
     qn = connection.ops.quote_name
     return f"INSERT INTO {qn(Fix._meta.db_table)} ({', '.join(qn(c) for c in FIX_COLUMNS)}) "
 
 
+@functools.cache
 def _insert_tail() -> str:
     qn = connection.ops.quote_name
     return (

@@ -15,6 +15,8 @@ from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import OpenApiParameter, extend_schema, inline_serializer
 from rest_framework import serializers, status
 from rest_framework.exceptions import NotFound, ParseError, ValidationError
+from rest_framework.negotiation import DefaultContentNegotiation
+from rest_framework.renderers import JSONRenderer
 from rest_framework.request import Request
 from rest_framework.response import Response
 from rest_framework.views import APIView
@@ -22,7 +24,7 @@ from rest_framework.views import APIView
 from commands.lifecycle import TransitionError
 from commands.models import Command
 from commands.services import CommandError, CommandNotFound, command_ack, command_claim_open
-from fleet.api import Conflict
+from fleet.api import Conflict, JSONParser
 from telemetry.services import fix_ingest
 from vessels.auth import VesselKeyAuthentication
 from vessels.models import Vessel
@@ -65,9 +67,22 @@ def records_from_body(data: Any, *, max_batch: int) -> list[Any]:
     return data
 
 
+class JsonOnly(DefaultContentNegotiation):
+    """The boat API answers JSON whatever the Accept header says (old modem clients send odd
+    ones); parsing Accept on every poll cost more than the poll's own query (profiled)."""
+
+    def select_renderer(
+        self, request: Request, renderers: list[Any], format_suffix: Any = None
+    ) -> tuple[Any, str]:
+        return renderers[0], renderers[0].media_type
+
+
 class BoatView(APIView):
     authentication_classes = [VesselKeyAuthentication]
     permission_classes = [IsBoat]
+    parser_classes = [JSONParser]
+    renderer_classes = [JSONRenderer]
+    content_negotiation_class = JsonOnly
 
     def vessel(self, request: Request) -> Vessel:
         return request.user.vessel
