@@ -92,8 +92,9 @@ def anonymous() -> APIClient:
 
 
 def _user(username: str, perms: list[str], *, staff: bool = True) -> User:
-    user = User.objects.create_user(username, f"{username}@example.org", "pw-" + username,
-                                    is_staff=staff)
+    user = User.objects.create_user(
+        username, f"{username}@example.org", "pw-" + username, is_staff=staff
+    )
     for perm in perms:
         app_label, codename = perm.split(".")
         user.user_permissions.add(
@@ -134,8 +135,12 @@ def make_fix() -> Callable[..., dict[str, Any]]:
 
     def make(**overrides: Any) -> dict[str, Any]:
         record: dict[str, Any] = {
-            "time": "2026-11-23T10:00:00Z", "lat": -31.9505, "lon": 115.8605,
-            "heading_deg": 90.0, "speed_mps": 1.2, "battery_v": 12.6,
+            "time": "2026-11-23T10:00:00Z",
+            "lat": -31.9505,
+            "lon": 115.8605,
+            "heading_deg": 90.0,
+            "speed_mps": 1.2,
+            "battery_v": 12.6,
             "readings": {"water_temp_c": 19.5},
         }
         record.update(overrides)

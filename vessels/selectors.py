@@ -60,7 +60,8 @@ def vessel_key_by_hash(key_hash: str) -> VesselKey | None:
     vessel = Vessel.from_db(connection.alias, list(_VESSEL_COLUMNS), vessel_row)
     vessel.active = bool(vessel.active)
     key = VesselKey.from_db(
-        connection.alias, list(_KEY_COLUMNS),
+        connection.alias,
+        list(_KEY_COLUMNS),
         [key_id, vessel_id, _as_datetime(revoked_at), _as_datetime(last_used_at)],
     )
     key.vessel = vessel

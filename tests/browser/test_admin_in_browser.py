@@ -15,8 +15,11 @@ from telemetry.services import fix_ingest
 from vessels.models import Vessel
 
 pytestmark = [pytest.mark.browser, pytest.mark.django_db(transaction=True)]
-SCREENSHOTS = Path(os.environ.get("SHORESIDE_SCREENSHOTS", "")) if os.environ.get(
-    "SHORESIDE_SCREENSHOTS") else None
+SCREENSHOTS = (
+    Path(os.environ.get("SHORESIDE_SCREENSHOTS", ""))
+    if os.environ.get("SHORESIDE_SCREENSHOTS")
+    else None
+)
 
 
 def shot(browser, name: str) -> None:
@@ -38,8 +41,9 @@ def visible(browser, name: str) -> bool:
     return browser.find_element(By.NAME, name).is_displayed()
 
 
-def test_an_operator_logs_in_and_queues_a_move_to(browser, live_server, operator_user: User,
-                                                  vessel_a: Vessel, make_fix) -> None:
+def test_an_operator_logs_in_and_queues_a_move_to(
+    browser, live_server, operator_user: User, vessel_a: Vessel, make_fix
+) -> None:
     fix_ingest(vessel=vessel_a, records=[make_fix()])
     log_in(browser, live_server, operator_user)
     browser.get(live_server.url + "/admin/vessels/vessel/")
@@ -61,18 +65,23 @@ def test_an_operator_logs_in_and_queues_a_move_to(browser, live_server, operator
 
     command = Command.objects.get()
     assert (command.vessel, command.kind, command.params) == (
-        vessel_a, "move_to", {"lat": -31.96, "lon": 115.85})
+        vessel_a,
+        "move_to",
+        {"lat": -31.96, "lon": 115.85},
+    )
     assert command.created_by == operator_user.username
     assert "was added successfully" in browser.page_source
 
 
-def test_the_admin_loads_no_asset_from_the_internet(browser, live_server,
-                                                    operator_user: User) -> None:
+def test_the_admin_loads_no_asset_from_the_internet(
+    browser, live_server, operator_user: User
+) -> None:
     log_in(browser, live_server, operator_user)
     for path in ("/admin/", "/admin/commands/command/add/", "/api/v1/docs/"):
         browser.get(live_server.url + path)
         urls = browser.execute_script(
-            "return performance.getEntriesByType('resource').map(e => e.name)")
+            "return performance.getEntriesByType('resource').map(e => e.name)"
+        )
         outside = [u for u in urls if not u.startswith(live_server.url)]
         assert outside == [], path
     assert "swagger-ui" in browser.page_source

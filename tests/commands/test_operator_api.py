@@ -259,7 +259,7 @@ def test_it_exports_fixes_as_csv(operator: APIClient, track: list) -> None:
     ]
 
 
-@pytest.mark.parametrize("name", ["=HYPERLINK(\"http://x\")", "+1", "@SUM(A1)", "-x"])
+@pytest.mark.parametrize("name", ['=HYPERLINK("http://x")', "+1", "@SUM(A1)", "-x"])
 def test_the_csv_export_never_starts_a_cell_with_a_formula(
     operator: APIClient, vessel_a: Vessel, name: str
 ) -> None:

@@ -192,10 +192,12 @@ def test_a_reading_name_that_cannot_be_stored_is_refused(name: str) -> None:
 def test_a_field_name_that_cannot_be_stored_is_named_safely(name: str) -> None:
     unknown = errors_of(record(**{name: 1}))
     bad_value = errors_of(record(readings={"t": "x", name: 1.0}))
-    legacy = pytest.raises(FixErrors, parse_legacy_fix,
-                           {"latitude": 1, "longitude": 1, name: 1.0}, now=NOW).value.errors
-    legacy_value = pytest.raises(FixErrors, parse_legacy_fix,
-                                 {"latitude": 1, "longitude": 1, name: "x"}, now=NOW).value.errors
+    legacy = pytest.raises(
+        FixErrors, parse_legacy_fix, {"latitude": 1, "longitude": 1, name: 1.0}, now=NOW
+    ).value.errors
+    legacy_value = pytest.raises(
+        FixErrors, parse_legacy_fix, {"latitude": 1, "longitude": 1, name: "x"}, now=NOW
+    ).value.errors
     for errors in (unknown, bad_value, legacy, legacy_value):
         assert errors
         json.dumps(errors, ensure_ascii=False).encode()

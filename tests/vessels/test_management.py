@@ -74,20 +74,34 @@ def test_seed_demo_makes_a_usable_fleet(tmp_path: Path) -> None:
 
 
 @pytest.mark.django_db(transaction=True)
-def test_a_simulated_boat_reports_and_carries_out_a_command(live_server, vessel_a: Vessel,
-                                                            key_a: str) -> None:
-    command = command_enqueue(vessel=vessel_a, kind="move_to",
-                              params={"lat": -31.9795, "lon": 115.8170})
+def test_a_simulated_boat_reports_and_carries_out_a_command(
+    live_server, vessel_a: Vessel, key_a: str
+) -> None:
+    command = command_enqueue(
+        vessel=vessel_a, kind="move_to", params={"lat": -31.9795, "lon": 115.8170}
+    )
     out, err = run(
-        "simulate_boat", "--server", live_server.url, "--key", key_a,
-        "--start=-31.9790,115.8170", "--sample", "0.2", "--period", "0.5", "--poll", "0.3",
-        "--speedup", "20", "--duration", "4",
+        "simulate_boat",
+        "--server",
+        live_server.url,
+        "--key",
+        key_a,
+        "--start=-31.9790,115.8170",
+        "--sample",
+        "0.2",
+        "--period",
+        "0.5",
+        "--poll",
+        "0.3",
+        "--speedup",
+        "20",
+        "--duration",
+        "4",
     )
     assert "accepted" in out, err
     command.refresh_from_db()
     assert command.status == "done", (out, err)
-    assert [e.to_status for e in command.events.all()] == [
-        "queued", "sent", "acknowledged", "done"]
+    assert [e.to_status for e in command.events.all()] == ["queued", "sent", "acknowledged", "done"]
     fixes = Fix.objects.filter(vessel=vessel_a)
     assert fixes.count() >= 10
     last = fixes.order_by("-recorded_at").first()
