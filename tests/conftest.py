@@ -8,8 +8,11 @@ from typing import Any
 
 import pytest
 from django.contrib.auth.models import Permission, User
+from rest_framework.authtoken.models import Token
 from rest_framework.test import APIClient
 
+from commands.models import Command
+from commands.services import command_enqueue
 from vessels.models import Vessel
 from vessels.services import vessel_create, vessel_key_issue, vessel_key_revoke
 
@@ -120,6 +123,28 @@ def operator(operator_user: User) -> APIClient:
     client = APIClient()
     client.force_authenticate(operator_user)
     return client
+
+
+@pytest.fixture
+def session_operator(operator_user: User) -> APIClient:
+    """Alice through the browser session."""
+    client = APIClient()
+    client.force_login(operator_user)
+    return client
+
+
+@pytest.fixture
+def token_operator(operator_user: User) -> APIClient:
+    """Alice through her personal API token."""
+    client = APIClient()
+    client.credentials(HTTP_AUTHORIZATION=f"Token {Token.objects.create(user=operator_user).key}")
+    return client
+
+
+@pytest.fixture
+def command_a(vessel_a: Vessel) -> Command:
+    """A queued move_to for boat A."""
+    return command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -31.95, "lon": 115.86})
 
 
 @pytest.fixture

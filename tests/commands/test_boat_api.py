@@ -11,7 +11,6 @@ from typing import Any
 import pytest
 from django.contrib.auth.models import User
 from django.utils import timezone
-from rest_framework.authtoken.models import Token
 from rest_framework.test import APIClient
 
 from commands.lifecycle import Status
@@ -42,25 +41,6 @@ def ack_url(uid: object) -> str:
 
 def iso(when: dt.datetime) -> str:
     return when.isoformat().replace("+00:00", "Z")
-
-
-@pytest.fixture
-def command_a(vessel_a: Vessel) -> Command:
-    return command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -31.95, "lon": 115.86})
-
-
-@pytest.fixture
-def session_operator(operator_user: User) -> APIClient:
-    client = APIClient()
-    client.force_login(operator_user)
-    return client
-
-
-@pytest.fixture
-def token_operator(operator_user: User) -> APIClient:
-    client = APIClient()
-    client.credentials(HTTP_AUTHORIZATION=f"Token {Token.objects.create(user=operator_user).key}")
-    return client
 
 
 def call(client: APIClient, endpoint: str, uid: object) -> Any:

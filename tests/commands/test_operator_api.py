@@ -9,7 +9,6 @@ from typing import Any
 
 import pytest
 from django.contrib.auth.models import User
-from rest_framework.authtoken.models import Token
 from rest_framework.test import APIClient
 
 from commands.lifecycle import Status
@@ -50,25 +49,6 @@ def track(vessel_a: Vessel) -> list[dt.datetime]:
         ],
     )
     return times
-
-
-@pytest.fixture
-def command_a(vessel_a: Vessel) -> Command:
-    return command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -31.95, "lon": 115.86})
-
-
-@pytest.fixture
-def token_operator(operator_user: User) -> APIClient:
-    client = APIClient()
-    client.credentials(HTTP_AUTHORIZATION=f"Token {Token.objects.create(user=operator_user).key}")
-    return client
-
-
-@pytest.fixture
-def session_operator(operator_user: User) -> APIClient:
-    client = APIClient()
-    client.force_login(operator_user)
-    return client
 
 
 # --- the auth matrix, on every operator endpoint ---
