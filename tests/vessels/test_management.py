@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import io
 import json
+from collections import deque
 from pathlib import Path
 
 import pytest
+import requests
 from django.contrib.auth.models import User
 from django.core.management import CommandError, call_command
 
@@ -14,6 +16,7 @@ from commands.models import Command
 from commands.services import command_enqueue
 from telemetry.models import Fix
 from vessels.keys import hash_key
+from vessels.management.commands.simulate_boat import Command as SimulateBoat
 from vessels.models import Vessel, VesselKey
 
 
@@ -106,3 +109,24 @@ def test_a_simulated_boat_reports_and_carries_out_a_command(
     assert fixes.count() >= 10
     last = fixes.order_by("-recorded_at").first()
     assert abs(last.lat - -31.9795) < 0.0002
+
+
+@pytest.mark.django_db(transaction=True)
+def test_a_simulated_boat_keeps_its_fixes_while_its_key_is_refused(
+    live_server, vessel_a: Vessel, key_a: str, revoked_key_a: str
+) -> None:
+    err = io.StringIO()
+    sim = SimulateBoat(stdout=io.StringIO(), stderr=err)
+    sim.server = live_server.url
+    sim.http = requests.Session()
+    sim.http.headers["Authorization"] = f"Api-Key {revoked_key_a}"
+    sim.backlog = deque([{"time": "2026-11-23T10:00:00Z", "lat": -31.9, "lon": 115.8}])
+
+    sim.do_one_post()
+    assert "telemetry refused: 401" in err.getvalue()
+    assert len(sim.backlog) == 1  # kept for the next try, not thrown away
+
+    sim.http.headers["Authorization"] = f"Api-Key {key_a}"
+    sim.do_one_post()
+    assert len(sim.backlog) == 0
+    assert Fix.objects.filter(vessel=vessel_a).count() == 1

@@ -123,10 +123,15 @@ class Command(BaseCommand):
         response = self._request("POST", "/api/v1/boat/telemetry/", json={"fixes": batch})
         if response is None or response.status_code >= 500:
             return
+        if response.status_code != 200:
+            self.stderr.write(f"telemetry refused: {response.status_code} {response.text[:200]}")
+            # Only a 400 means the batch itself is bad; a refused key (401/403) or a limit
+            # (413/429) says nothing against the fixes, so they wait for the next try.
+            if response.status_code != 400:
+                return
         for _ in batch:
             self.backlog.popleft()
         if response.status_code != 200:
-            self.stderr.write(f"telemetry refused: {response.status_code} {response.text[:200]}")
             return
         result = response.json()
         self.stdout.write(
