@@ -1,7 +1,17 @@
+"""`manage.py expire_commands`: expire queued commands past their expires_at.
+
+Once (for cron), or with ``--loop`` beside the web server in the shape of healthchecks'
+``sendalerts``: SIGTERM/SIGINT only set a flag, and a pass that fails (the database restarting,
+a lost connection) is logged and retried on the next pass instead of ending the process, which
+systemd would only restart into the same error.
+"""
+
 from __future__ import annotations
 
+import logging
 import signal
 import time
+from collections.abc import Callable
 from typing import Any
 
 from django.core.management.base import BaseCommand, CommandParser
@@ -9,9 +19,17 @@ from django.db import close_old_connections
 
 from commands.services import command_expire_due
 
+logger = logging.getLogger(__name__)
+
+# How often the idle wait between passes looks at the stop flag (seconds).
+STOP_CHECK_S = 0.2
+
 
 class Command(BaseCommand):
     help = "Expire queued commands past their expires_at (once, or in a loop with --loop)."
+
+    # The idle wait's sleep; tests replace it on the instance to run the loop without waiting.
+    sleep: Callable[[float], None] = staticmethod(time.sleep)
 
     def add_arguments(self, parser: CommandParser) -> None:
         parser.add_argument("--loop", action="store_true")
@@ -19,20 +37,36 @@ class Command(BaseCommand):
 
     def handle(self, *args: Any, **opts: Any) -> None:
         self.stopping = False
-        signal.signal(signal.SIGTERM, self._stop)
-        signal.signal(signal.SIGINT, self._stop)
-        while True:
-            self.do_one_pass()
-            if not opts["loop"] or self.stopping:
-                return
-            deadline = time.monotonic() + opts["interval"]
-            while not self.stopping and time.monotonic() < deadline:
-                time.sleep(0.2)
-            if self.stopping:
-                return
+        previous = {sig: signal.signal(sig, self._stop) for sig in (signal.SIGTERM, signal.SIGINT)}
+        try:
+            if opts["loop"]:
+                self.run_loop(interval=opts["interval"])
+            else:
+                self.do_one_pass()  # cron: a failure fails the run, so cron reports it
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
 
     def _stop(self, signum: int, frame: Any) -> None:
         self.stopping = True
+
+    def run_loop(self, *, interval: float) -> None:
+        """Pass, wait ``interval`` seconds, repeat until the stop flag is set."""
+        while not self.stopping:
+            self.do_one_guarded_pass()
+            self.wait(interval)
+
+    def do_one_guarded_pass(self) -> bool:
+        """One pass that never raises: a failure is logged and the loop carries on."""
+        try:
+            self.do_one_pass()
+        except Exception:
+            logger.exception("expire_commands: the pass failed; trying again next pass")
+            return False
+        finally:
+            # A connection the failure left broken is dropped here, not reused next pass.
+            close_old_connections()
+        return True
 
     def do_one_pass(self) -> int:
         close_old_connections()
@@ -40,3 +74,11 @@ class Command(BaseCommand):
         if count:
             self.stdout.write(f"expired {count} command(s)")
         return count
+
+    def wait(self, seconds: float) -> None:
+        """Sleep ``seconds`` in short steps, returning early once the stop flag is set."""
+        remaining = seconds
+        while remaining > 0 and not self.stopping:
+            step = min(STOP_CHECK_S, remaining)
+            self.sleep(step)
+            remaining -= step
