@@ -9,8 +9,9 @@ from __future__ import annotations
 import os
 import secrets
 from pathlib import Path
-from urllib.parse import parse_qsl, unquote, urlsplit
+from urllib.parse import urlsplit
 
+import dj_database_url
 from django.core.exceptions import ImproperlyConfigured
 
 BASE_DIR = Path(__file__).resolve().parent.parent
@@ -49,27 +50,34 @@ def env_list(name: str, default: list[str]) -> list[str]:
     return [item.strip() for item in raw.split(",") if item.strip()]
 
 
+# The databases Shoreside runs on; dj-database-url would also accept mysql://, oracle://, ….
+DATABASE_SCHEMES = ("postgres", "postgresql", "pgsql", "sqlite")
+
+
 def database_from_url(url: str) -> dict[str, object]:
-    """Turn postgres://user:pass@host:port/name?opt=v (or sqlite:///path) into a DATABASES entry."""
-    parts = urlsplit(url)
-    if parts.scheme in {"postgres", "postgresql", "pgsql"}:
-        options = dict(parse_qsl(parts.query))
-        return {
-            "ENGINE": "django.db.backends.postgresql",
-            "NAME": unquote(parts.path.lstrip("/")),
-            "USER": unquote(parts.username or ""),
-            "PASSWORD": unquote(parts.password or ""),
-            "HOST": parts.hostname or "",
-            "PORT": str(parts.port or ""),
+    """A DATABASES entry for DATABASE_URL: dj-database-url parses, then the project's extras.
+
+    postgres://user:pass@host:port/name?opt=v, or sqlite:///relative.db and
+    sqlite:////absolute/path.db (which get the same options as the default SQLite file).
+    """
+    scheme = urlsplit(url).scheme
+    if scheme not in DATABASE_SCHEMES:
+        raise ValueError(f"DATABASE_URL scheme {scheme!r} is not supported (postgres or sqlite)")
+    db: dict[str, object] = dict(
+        dj_database_url.parse(
+            url,
             # Persistent connections: a boat poll must not pay for a new connection.
-            "CONN_MAX_AGE": env_int("DB_CONN_MAX_AGE", 600),
-            "CONN_HEALTH_CHECKS": True,
-            "OPTIONS": options,
-        }
-    if parts.scheme == "sqlite":
-        # sqlite:///relative.db and sqlite:////absolute/path.db, as dj-database-url reads them.
-        return _sqlite(Path(unquote(parts.path[1:])))
-    raise ValueError(f"DATABASE_URL scheme {parts.scheme!r} is not supported (postgres or sqlite)")
+            conn_max_age=env_int("DB_CONN_MAX_AGE", 600),
+            conn_health_checks=True,
+        )
+    )
+    if db["ENGINE"] == "django.db.backends.sqlite3":
+        return _sqlite(Path(str(db["NAME"])))
+    # dj-database-url gives an int port and leaves out empty OPTIONS; Django takes both
+    # forms, and the entry keeps the shape it always had.
+    db["PORT"] = str(db["PORT"])
+    db.setdefault("OPTIONS", {})
+    return db
 
 
 def _sqlite(path: Path) -> dict[str, object]:

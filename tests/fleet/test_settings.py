@@ -101,6 +101,39 @@ def test_an_unsupported_database_url_is_refused(url: str) -> None:
         database_from_url(url)
 
 
+@pytest.mark.parametrize(
+    ("url", "scheme"), [("mysql://u@h/db", "mysql"), ("oracle://h/x", "oracle")]
+)
+def test_the_refusal_names_the_scheme(url: str, scheme: str) -> None:
+    # dj-database-url itself would parse these; Shoreside runs on PostgreSQL and SQLite only.
+    with pytest.raises(ValueError, match=f"DATABASE_URL scheme '{scheme}' is not supported"):
+        database_from_url(url)
+
+
+@pytest.mark.parametrize("url", ["postgres://u@h/db", "sqlite:////var/lib/shore.db"])
+def test_database_urls_keep_connections_with_health_checks(
+    monkeypatch: pytest.MonkeyPatch, url: str
+) -> None:
+    monkeypatch.setenv("DB_CONN_MAX_AGE", "42")
+    db = database_from_url(url)
+    assert (db["CONN_MAX_AGE"], db["CONN_HEALTH_CHECKS"]) == (42, True)
+    monkeypatch.delenv("DB_CONN_MAX_AGE")
+    assert database_from_url(url)["CONN_MAX_AGE"] == 600
+
+
+def test_a_sqlite_url_gets_the_default_sqlite_options() -> None:
+    db = database_from_url("sqlite:////var/lib/shoreside/db.sqlite3")
+    assert db["OPTIONS"]["timeout"] == 20
+    assert db["OPTIONS"]["transaction_mode"] == "IMMEDIATE"
+    assert "foreign_keys=ON" in db["OPTIONS"]["init_command"]
+    assert db["TEST"]["NAME"] == Path(f"/var/lib/shoreside/test_{os.getpid()}_db.sqlite3")
+
+
+def test_a_postgres_url_without_options_still_has_an_options_table() -> None:
+    assert database_from_url("postgres://u@h:5433/db")["OPTIONS"] == {}
+    assert database_from_url("postgres://u@h:5433/db")["PORT"] == "5433"
+
+
 def test_the_default_timezone_is_utc(settings: Any) -> None:
     assert settings.TIME_ZONE == "UTC"
     assert settings.USE_TZ is True
