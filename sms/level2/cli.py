@@ -146,7 +146,7 @@ def _payload(args: argparse.Namespace, out: TextIO) -> int:
         poll_period_s=args.period,
         flags=ExtraInfo.COMMAND_ACK | ExtraInfo.POWER,
     )
-    machine = PayloadMachine(config, source)
+    machine = PayloadMachine(config, source=source)
     url = args.port
     factory = open_port
     if url == "pty":

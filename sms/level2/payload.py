@@ -307,11 +307,14 @@ class PayloadMachine:
     def __init__(
         self,
         config: PayloadConfig | None = None,
-        source: CommandSource | None = None,
+        *,
+        source: CommandSource,
         sensors: SensorState | None = None,
     ) -> None:
+        # The caller chooses the command source (a MemoryCommandSource with its table, or the
+        # bridge's database-backed one): the machine itself opens no file and takes no lock.
         self.config = config or PayloadConfig()
-        self.source: CommandSource = source if source is not None else MemoryCommandSource()
+        self.source = source
         self.sensors = sensors or SensorState()
         self.latest_fix: Fix | None = None
         self.enumerated = False

@@ -22,9 +22,11 @@ from sms.level2.bodies import (
 from sms.level2.cfa import Capture
 from sms.level2.codec import BROADCAST, CC_MAIN, Address, Frame, MessageType
 from sms.level2.framing import decode_stream
+from sms.level2.inner import InnerCommandTable
 from sms.level2.payload import (
     CommandCompleted,
     CommandHandedOver,
+    CommandResult,
     FixReceived,
     Ignored,
     MemoryCommandSource,
@@ -32,6 +34,7 @@ from sms.level2.payload import (
     PayloadMachine,
     PowerDown,
     PowerNotice,
+    QueuedCommand,
     ResultWithoutCommand,
     SensorState,
 )
@@ -52,7 +55,7 @@ REAL_SENSORS = SensorState(0, 0, 21, 35, 21, 100)  # §8.4: the capture's readin
 
 
 def machine(**config: object) -> PayloadMachine:
-    return PayloadMachine(PayloadConfig(**config))  # type: ignore[arg-type]
+    return PayloadMachine(PayloadConfig(**config), source=MemoryCommandSource())  # type: ignore[arg-type]
 
 
 def request(msg_type: int, body: bytes = b"", tid: int = 0x19, **kw: object) -> Frame:
@@ -81,7 +84,7 @@ def test_replay_of_the_power_up_capture_gives_the_real_boards_replies(
 ) -> None:
     capture = captures["OA_enum_first_2014Mar19.cfa"]
     real = {f.tid: f for f in decode_stream(capture.payload_to_cc)}
-    pib = PayloadMachine(REAL_PIB, MemoryCommandSource(), REAL_SENSORS)
+    pib = PayloadMachine(REAL_PIB, source=MemoryCommandSource(), sensors=REAL_SENSORS)
     for text in ("fhead 10", "fhead 20", "light on"):  # the real PIB had 3 messages queued
         pib.source.add(text)  # type: ignore[attr-defined]
     compared = 0
@@ -108,7 +111,7 @@ def test_replay_of_the_power_up_capture_gives_the_real_boards_replies(
 def test_replay_of_the_retry_capture_answers_every_attempt_identically(
     captures: dict[str, Capture],
 ) -> None:
-    pib = PayloadMachine(REAL_PIB)
+    pib = PayloadMachine(REAL_PIB, source=MemoryCommandSource())
     answers: dict[int, set[bytes]] = {}
     for cc in decode_stream(captures["Responses.cfa"].cc_to_payload):
         [reply] = pib.handle(cc)
@@ -134,7 +137,7 @@ def test_enumerate_on_broadcast_is_answered_with_the_configured_block() -> None:
 
 def test_status_reply_carries_the_sensor_state_with_zeros_for_unknown() -> None:
     sensors = SensorState(leak1=1, humidity_temp_c=-3, pressure_kpa=101.4, humidity_pct=400)
-    pib = PayloadMachine(PayloadConfig(), sensors=sensors)
+    pib = PayloadMachine(PayloadConfig(), source=MemoryCommandSource(), sensors=sensors)
     [reply] = pib.handle(status())
     block = StatusReply.from_bytes(reply.body).block
     assert (block.leak1, block.leak2, block.humidity_temp_c) == (1, 0, 0)
@@ -223,6 +226,40 @@ def test_a_retried_status_request_keeps_its_first_answer() -> None:
     assert pib.handle(status(0x40)) == first  # the retry: same tid, same bytes
     [fresh] = pib.handle(status(0x41))
     assert StatusReply.from_bytes(fresh.body).block.queued
+
+
+class ListSource:
+    """A command source that is not the in-memory one (the bridge's is database-backed)."""
+
+    def __init__(self, *queued: QueuedCommand) -> None:
+        self.queued = list(queued)
+        self.completed: list[CommandResult] = []
+
+    def pending_count(self) -> int:
+        return len(self.queued)
+
+    def take_next(self) -> QueuedCommand | None:
+        return self.queued.pop(0) if self.queued else None
+
+    def complete(self, result: CommandResult) -> None:
+        self.completed.append(result)
+
+
+def test_the_machine_needs_a_command_source_from_its_caller() -> None:
+    with pytest.raises(TypeError, match="source"):
+        PayloadMachine(PayloadConfig())  # type: ignore[call-arg]
+
+
+def test_commands_come_from_and_results_go_to_the_callers_source() -> None:
+    command = QueuedCommand("db-41", InnerCommandTable.load().parse("fhead 230"))
+    source = ListSource(command)
+    pib = PayloadMachine(PayloadConfig(), source=source)
+    [answer] = pib.handle(status())
+    assert StatusReply.from_bytes(answer.body).block.queued
+    [handover] = pib.handle(queued())
+    assert QueuedReply.from_bytes(handover.body).data == command.queued_data()
+    pib.handle(result(0))
+    assert [(r.ident, r.done) for r in source.completed] == [("db-41", True)]
 
 
 # --- results --------------------------------------------------------------------------------------

@@ -38,7 +38,7 @@ class Running:
 
 def start_runner(url: str, port_factory=open_port, **config: object) -> Running:  # type: ignore[no-untyped-def]
     source = MemoryCommandSource()
-    machine = PayloadMachine(PayloadConfig(**config), source)  # type: ignore[arg-type]
+    machine = PayloadMachine(PayloadConfig(**config), source=source)  # type: ignore[arg-type]
     runner = PayloadRunner(url, machine, reconnect_delay_s=0.05, port_factory=port_factory)
     errors: list[BaseException] = []
 
