@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import os
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -156,55 +157,78 @@ def load_config(
     """Read ``path`` (if given), apply ``overrides`` (flag name → value, None = not given), check.
 
     1. Parse the TOML file; a syntax error names the line.
-    2. Build each table's dataclass, refusing unknown keys and wrong types.
-    3. Apply the overrides on top.
+    2. Apply the overrides on top.
+    3. Build each table's dataclass, refusing unknown keys and wrong types.
     4. Resolve the vessel key (flag/file value, ``key_file``, or ``$SHORESIDE_EDGE_KEY``).
     5. Check cross-field rules (server URL present and http(s), periods positive, ...).
     """
     source = str(path) if path else "command line"
-    raw: dict[str, Any] = {}
-    if path:
-        try:
-            with open(path, "rb") as fh:
-                raw = tomllib.load(fh)
-        except FileNotFoundError:
-            raise ConfigError(f"{source}: no such file") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{source}: not valid TOML: {exc}") from None
-    raw = {k: (dict(v) if isinstance(v, dict) else v) for k, v in raw.items()}
-    transport_raw = dict(raw.get("transport", {}) or {})
-    modem_raw = transport_raw.pop("modem", {})
-    for name, value in (overrides or {}).items():
+    raw = _read_toml(path, source) if path else {}
+    _apply_overrides(raw, overrides or {}, source)
+    config = _build_config(raw, source)
+    config = replace(config, server=replace(config.server, key=_resolve_key(config.server, source)))
+    _check(config, source)
+    return config
+
+
+# --- 1. reading ------------------------------------------------------------------------------
+
+
+def _read_toml(path: str | os.PathLike[str], source: str) -> dict[str, Any]:
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"{source}: no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+
+
+# --- 2. overrides ----------------------------------------------------------------------------
+
+
+def _apply_overrides(raw: dict[str, Any], overrides: dict[str, Any], source: str) -> None:
+    """Write each given flag's value into ``raw`` at its (table, key) from :data:`OVERRIDES`."""
+    for name, value in overrides.items():
         if value is None:
             continue
         table, key = OVERRIDES[name]
         if table == "":
             raw[key] = value
-        elif table == "modem":
-            modem_raw = {**modem_raw, key: value}
-        elif table == "transport":
-            transport_raw[key] = value
         else:
-            raw.setdefault(table, {})
-            if not isinstance(raw[table], dict):
-                raise ConfigError(f"{source}: [{table}] must be a table")
-            raw[table][key] = value
+            _table(raw, _TABLE_PATHS.get(table, (table,)), source)[key] = value
 
-    known_top = {"server", "mavlink", "telemetry", "commands", "outbox", "transport", "readings"}
-    known_top |= {"log_level"}
+
+# The override tables that are nested in the file: the modem's settings are [transport.modem].
+_TABLE_PATHS: dict[str, tuple[str, ...]] = {"modem": ("transport", "modem")}
+
+
+def _table(raw: dict[str, Any], path: tuple[str, ...], source: str) -> dict[str, Any]:
+    """The (possibly nested) table at ``path`` in ``raw``, created empty if absent."""
+    table = raw
+    for depth, name in enumerate(path, start=1):
+        table = table.setdefault(name, {})
+        if not isinstance(table, dict):
+            raise ConfigError(f"{source}: [{'.'.join(path[:depth])}] must be a table")
+    return table
+
+
+# --- 3. building -----------------------------------------------------------------------------
+
+_TOP_LEVEL_KEYS = frozenset(
+    {"server", "mavlink", "telemetry", "commands", "outbox", "transport", "readings", "log_level"}
+)
+
+
+def _build_config(raw: dict[str, Any], source: str) -> Config:
     for key in raw:
-        if key not in known_top:
-            raise ConfigError(f"{source}: unknown setting {key!r} (known: {sorted(known_top)})")
-
-    modem = _build(ModemConfig, modem_raw, f"{source}: [transport.modem]")
-    transport = replace(
-        _build(TransportConfig, transport_raw, f"{source}: [transport]", skip={"modem"}),
-        modem=modem,
-    )
-    log_level = raw.get("log_level", "INFO")
-    if not isinstance(log_level, str) or log_level.upper() not in _LOG_LEVELS:
-        raise ConfigError(f"{source}: log_level must be one of {', '.join(_LOG_LEVELS)}")
-    config = Config(
+        if key not in _TOP_LEVEL_KEYS:
+            raise ConfigError(
+                f"{source}: unknown setting {key!r} (known: {sorted(_TOP_LEVEL_KEYS)})"
+            )
+    transport = _build_transport(raw.get("transport", {}) or {}, source)
+    log_level = _log_level(raw.get("log_level", "INFO"), source)
+    return Config(
         server=_build(ServerConfig, raw.get("server", {}), f"{source}: [server]"),
         mavlink=_build(MavlinkConfig, raw.get("mavlink", {}), f"{source}: [mavlink]"),
         telemetry=_build(TelemetryConfig, raw.get("telemetry", {}), f"{source}: [telemetry]"),
@@ -212,11 +236,24 @@ def load_config(
         outbox=_build(OutboxConfig, raw.get("outbox", {}), f"{source}: [outbox]"),
         transport=transport,
         readings=_readings(raw.get("readings", {}), source),
-        log_level=log_level.upper(),
+        log_level=log_level,
     )
-    config = replace(config, server=replace(config.server, key=_resolve_key(config.server, source)))
-    _check(config, source)
-    return config
+
+
+def _build_transport(values: Any, source: str) -> TransportConfig:
+    """[transport] with its nested [transport.modem] table."""
+    if not isinstance(values, dict):
+        raise ConfigError(f"{source}: [transport] must be a table")
+    values = dict(values)
+    modem = _build(ModemConfig, values.pop("modem", {}), f"{source}: [transport.modem]")
+    transport = _build(TransportConfig, values, f"{source}: [transport]", skip={"modem"})
+    return replace(transport, modem=modem)
+
+
+def _log_level(value: Any, source: str) -> str:
+    if not isinstance(value, str) or value.upper() not in _LOG_LEVELS:
+        raise ConfigError(f"{source}: log_level must be one of {', '.join(_LOG_LEVELS)}")
+    return value.upper()
 
 
 def _build(cls: type, values: Any, where: str, skip: frozenset[str] | set[str] = frozenset()):
@@ -234,6 +271,7 @@ def _build(cls: type, values: Any, where: str, skip: frozenset[str] | set[str] =
 
 
 def _coerce(value: Any, expected: type, where: str) -> Any:
+    """``value`` as ``expected`` (bool, int, float or str), or a ConfigError naming ``where``."""
     # bool is an int subclass: check it first so `baud = true` is refused.
     if expected is bool:
         if isinstance(value, bool):
@@ -241,53 +279,68 @@ def _coerce(value: Any, expected: type, where: str) -> Any:
         raise ConfigError(f"{where}: expected true or false, got {value!r}")
     if isinstance(value, bool):
         raise ConfigError(f"{where}: expected {expected.__name__}, got {value!r}")
-    if expected is int:
-        if isinstance(value, int):
-            return value
-        if isinstance(value, str) and value.strip().lstrip("-").isdigit():
-            return int(value)  # from a command-line flag
-        raise ConfigError(f"{where}: expected a whole number, got {value!r}")
-    if expected is float:
-        if isinstance(value, int | float):
+    coerce = _COERCIONS.get(expected)
+    if coerce is None:
+        raise ConfigError(f"{where}: unsupported value {value!r}")  # pragma: no cover
+    return coerce(value, where)
+
+
+def _as_int(value: Any, where: str) -> int:
+    if isinstance(value, int):
+        return value
+    if isinstance(value, str) and value.strip().lstrip("-").isdigit():
+        return int(value)  # from a command-line flag
+    raise ConfigError(f"{where}: expected a whole number, got {value!r}")
+
+
+def _as_float(value: Any, where: str) -> float:
+    if isinstance(value, int | float):
+        return float(value)
+    if isinstance(value, str):
+        try:
             return float(value)
-        if isinstance(value, str):
-            try:
-                return float(value)
-            except ValueError:
-                pass
-        raise ConfigError(f"{where}: expected a number, got {value!r}")
-    if expected is str:
-        if isinstance(value, str):
-            return value
-        raise ConfigError(f"{where}: expected a string, got {value!r}")
-    raise ConfigError(f"{where}: unsupported value {value!r}")  # pragma: no cover
+        except ValueError:
+            pass
+    raise ConfigError(f"{where}: expected a number, got {value!r}")
+
+
+def _as_str(value: Any, where: str) -> str:
+    if isinstance(value, str):
+        return value
+    raise ConfigError(f"{where}: expected a string, got {value!r}")
+
+
+_COERCIONS: dict[type, Callable[[Any, str], Any]] = {int: _as_int, float: _as_float, str: _as_str}
 
 
 def _readings(values: Any, source: str) -> tuple[ReadingSource, ...]:
     if not isinstance(values, dict):
         raise ConfigError(f"{source}: [readings] must be a table of tables")
-    out = []
-    for name, spec in values.items():
-        where = f"{source}: [readings.{name}]"
-        if not isinstance(spec, dict):
-            raise ConfigError(f"{where} must be a table with message, field and optional scale")
-        unknown = set(spec) - {"message", "field", "scale"}
-        if unknown:
-            raise ConfigError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
-        if "message" not in spec or "field" not in spec:
-            raise ConfigError(f"{where}: needs both message and field")
-        message = _coerce(spec["message"], str, f"{where} message")
-        if not message.isupper() or not message.replace("_", "").isalnum():
-            raise ConfigError(f"{where} message: {message!r} is not a MAVLink message name")
-        out.append(
-            ReadingSource(
-                name=name,
-                message=message,
-                field=_coerce(spec["field"], str, f"{where} field"),
-                scale=_coerce(spec.get("scale", 1.0), float, f"{where} scale"),
-            )
-        )
-    return tuple(out)
+    return tuple(
+        _reading(name, spec, f"{source}: [readings.{name}]") for name, spec in values.items()
+    )
+
+
+def _reading(name: str, spec: Any, where: str) -> ReadingSource:
+    if not isinstance(spec, dict):
+        raise ConfigError(f"{where} must be a table with message, field and optional scale")
+    unknown = set(spec) - {"message", "field", "scale"}
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+    if "message" not in spec or "field" not in spec:
+        raise ConfigError(f"{where}: needs both message and field")
+    message = _coerce(spec["message"], str, f"{where} message")
+    if not message.isupper() or not message.replace("_", "").isalnum():
+        raise ConfigError(f"{where} message: {message!r} is not a MAVLink message name")
+    return ReadingSource(
+        name=name,
+        message=message,
+        field=_coerce(spec["field"], str, f"{where} field"),
+        scale=_coerce(spec.get("scale", 1.0), float, f"{where} scale"),
+    )
+
+
+# --- 4. the key ------------------------------------------------------------------------------
 
 
 def _resolve_key(server: ServerConfig, source: str) -> str:
@@ -301,19 +354,34 @@ def _resolve_key(server: ServerConfig, source: str) -> str:
     return os.environ.get(KEY_ENV, "").strip()
 
 
+# --- 5. cross-field checks -------------------------------------------------------------------
+
+
 def _check(config: Config, source: str) -> None:
-    url = config.server.url
-    if not url:
+    _check_server(config.server, source)
+    if not config.mavlink.connection:
+        raise ConfigError(f"{source}: [mavlink] connection is required")
+    _check_positive(config, source)
+    _check_transport(config.transport, source)
+    if not config.outbox.path:
+        raise ConfigError(f"{source}: [outbox] path is required")
+
+
+def _check_server(server: ServerConfig, source: str) -> None:
+    if not server.url:
         raise ConfigError(f"{source}: [server] url is required (or pass --server URL)")
-    parts = urlsplit(url)
+    parts = urlsplit(server.url)
     if parts.scheme not in ("http", "https") or not parts.hostname:
-        raise ConfigError(f"{source}: [server] url: {url!r} is not an http:// or https:// URL")
-    if not config.server.key:
+        raise ConfigError(
+            f"{source}: [server] url: {server.url!r} is not an http:// or https:// URL"
+        )
+    if not server.key:
         raise ConfigError(
             f"{source}: no vessel key: set [server] key or key_file, pass --key, or set ${KEY_ENV}"
         )
-    if not config.mavlink.connection:
-        raise ConfigError(f"{source}: [mavlink] connection is required")
+
+
+def _check_positive(config: Config, source: str) -> None:
     positive = {
         "[mavlink] baud": config.mavlink.baud,
         "[mavlink] stream_rate_hz": config.mavlink.stream_rate_hz,
@@ -330,14 +398,15 @@ def _check(config: Config, source: str) -> None:
     for where, value in positive.items():
         if value <= 0:
             raise ConfigError(f"{source}: {where} must be greater than zero, got {value}")
-    if config.transport.retries < 0 or config.transport.backoff_s < 0:
+
+
+def _check_transport(transport: TransportConfig, source: str) -> None:
+    if transport.retries < 0 or transport.backoff_s < 0:
         raise ConfigError(f"{source}: [transport] retries and backoff_s cannot be negative")
-    if config.transport.kind not in _TRANSPORT_KINDS:
+    if transport.kind not in _TRANSPORT_KINDS:
         raise ConfigError(
-            f"{source}: [transport] kind: {config.transport.kind!r} is not one of "
+            f"{source}: [transport] kind: {transport.kind!r} is not one of "
             f"{', '.join(_TRANSPORT_KINDS)}"
         )
-    if config.transport.kind == "modem" and not config.transport.modem.trigger:
+    if transport.kind == "modem" and not transport.modem.trigger:
         raise ConfigError(f"{source}: [transport.modem] trigger cannot be empty")
-    if not config.outbox.path:
-        raise ConfigError(f"{source}: [outbox] path is required")

@@ -133,3 +133,43 @@ def test_cli_exits_2_with_the_reason(tmp_path):
     )  # fmt: skip
     assert result.returncode == 2
     assert "bad configuration" in result.stderr and "no vessel key" in result.stderr
+
+
+def test_the_modem_port_and_log_level_flags(tmp_path):
+    path = write(
+        tmp_path, '[server]\nurl = "http://h"\nkey = "k"\n[transport.modem]\nbaud = 9600\n'
+    )
+    config = load_config(
+        path, {"transport": "modem", "modem_port": "/dev/ttyS3", "log_level": "debug"}
+    )
+    assert (config.transport.kind, config.transport.modem.port) == ("modem", "/dev/ttyS3")
+    assert config.transport.modem.baud == 9600  # the file's other modem settings stay
+    assert config.log_level == "DEBUG"
+    assert load_config(None, {"server": "http://h", "key": "k"}).log_level == "INFO"
+
+
+@pytest.mark.parametrize(
+    ("text", "flags", "message"),
+    [
+        ('log_level = "LOUD"\n', {}, "log_level must be one of"),
+        ('server = "h"\n', {"server": "http://h"}, r"\[server\] must be a table"),
+        ('transport = "http"\n', {}, r"\[transport\] must be a table"),
+        ("[transport]\nmodem = 3\n", {}, r"\[transport.modem\] must be a table"),
+        ("[transport]\nmodem = 3\n", {"modem_port": "/dev/x"}, r"\[transport.modem\] must be"),
+        ("readings = 1\n", {}, r"\[readings\] must be a table of tables"),
+        ("[readings]\nt = 1\n", {}, r"\[readings.t\] must be a table with message"),
+        ('[readings.t]\nmessage = "X"\nfield = "f"\nunit = "C"\n', {}, "unknown key.s. unit"),
+        ('[readings.t]\nmessage = "temp"\nfield = "f"\n', {}, "not a MAVLink message name"),
+        ("[transport]\nretries = -1\n", {}, "cannot be negative"),
+        ('[transport]\nkind = "modem"\n[transport.modem]\ntrigger = ""\n', {}, "trigger cannot"),
+        ('[outbox]\npath = ""\n', {}, r"\[outbox\] path is required"),
+        ('[mavlink]\nconnection = ""\n', {}, r"\[mavlink\] connection is required"),
+        ("[mavlink]\nstream_rate_hz = 0\n", {}, "stream_rate_hz must be greater than zero"),
+        ('[telemetry]\nperiod_s = "soon"\n', {}, "expected a number"),
+        ("[server]\nkey_file = 7\n", {}, "expected a string"),
+    ],
+)
+def test_every_table_is_checked_with_flags_or_not(tmp_path, text, flags, message):
+    path = write(tmp_path, text)
+    with pytest.raises(ConfigError, match=message):
+        load_config(path, {"server": "http://h", "key": "k", **flags})
