@@ -60,6 +60,41 @@ class ParsedResponse:
     body: bytes
 
 
+def _parse_status_line(line: str) -> tuple[int, str]:
+    """``HTTP/1.x 200 OK`` → (200, "OK"); the reason phrase may be missing (RFC 9112 §4)."""
+    parts = line.split(" ", 2)
+    if len(parts) < 2 or not parts[0].startswith("HTTP/1.") or not parts[1].isdigit():
+        raise HttpWireError(f"bad status line {line!r}")
+    return int(parts[1]), parts[2] if len(parts) > 2 else ""
+
+
+def _parse_header_lines(lines: list[str]) -> dict[str, str]:
+    """Header fields by lower-case name; a repeated field's values are joined with ", "."""
+    headers: dict[str, str] = {}
+    for line in lines:
+        name, sep, value = line.partition(":")
+        if not sep or not name or name != name.strip():
+            raise HttpWireError(f"bad header line {line!r}")
+        key = name.lower()
+        value = value.strip()
+        headers[key] = f"{headers[key]}, {value}" if key in headers else value
+    return headers
+
+
+def _body_framing(status: int, headers: dict[str, str]) -> tuple[int | None, bool]:
+    """(Content-Length, or None for "until the connection closes"; chunked?), RFC 9112 §6.3."""
+    chunked = "chunked" in headers.get("transfer-encoding", "").lower()
+    length = None
+    if not chunked and "content-length" in headers:
+        raw = headers["content-length"]
+        if not raw.isdigit():
+            raise HttpWireError(f"bad Content-Length {raw!r}")
+        length = int(raw)
+    if status in (204, 304) or 100 <= status < 200:
+        return 0, False  # no body by definition (RFC 9112 §6.3 rule 1)
+    return length, chunked
+
+
 @dataclass
 class ResponseParser:
     """Incremental parser: ``feed()`` bytes as they arrive, ``close()`` at end of input.
@@ -127,50 +162,36 @@ class ResponseParser:
                 self._finish()
 
     def _parse_head(self) -> bool:
+        """Parse the status line and headers once all of them are in; False while not."""
+        head = self._take_head()
+        if head is None:
+            return False
+        status_line, *header_lines = head.split("\r\n")
+        self._status, self._reason = _parse_status_line(status_line)
+        self._headers = _parse_header_lines(header_lines)
+        self._length, self._chunked = _body_framing(self._status, self._headers)
+        return True
+
+    def _take_head(self) -> str | None:
+        """Skip chatter before ``HTTP/``; then remove and return the head up to its blank line."""
         start = self._buf.find(b"HTTP/")
         if start < 0:
             # Keep a possible partial "HTTP/" at the end; drop the rest as chatter.
-            keep = 4
-            drop = max(0, len(self._buf) - keep)
-            self.skipped_bytes += drop
-            del self._buf[:drop]
-            return False
-        if start:
-            self.skipped_bytes += start
-            del self._buf[:start]
+            self._skip(max(0, len(self._buf) - len(b"HTTP")))
+            return None
+        self._skip(start)
         end = self._buf.find(CRLF + CRLF)
         if end < 0:
             if len(self._buf) > MAX_HEAD_BYTES:
                 raise HttpWireError("response head too large")
-            return False
+            return None
         head = bytes(self._buf[:end]).decode("latin-1")
-        del self._buf[: end + 4]
-        status_line, *header_lines = head.split("\r\n")
-        parts = status_line.split(" ", 2)
-        if len(parts) < 2 or not parts[0].startswith("HTTP/1.") or not parts[1].isdigit():
-            raise HttpWireError(f"bad status line {status_line!r}")
-        self._status = int(parts[1])
-        self._reason = parts[2] if len(parts) > 2 else ""
-        headers: dict[str, str] = {}
-        for line in header_lines:
-            name, sep, value = line.partition(":")
-            if not sep or not name or name != name.strip():
-                raise HttpWireError(f"bad header line {line!r}")
-            key = name.lower()
-            value = value.strip()
-            headers[key] = f"{headers[key]}, {value}" if key in headers else value
-        self._headers = headers
-        if "chunked" in headers.get("transfer-encoding", "").lower():
-            self._chunked = True
-        elif "content-length" in headers:
-            raw = headers["content-length"]
-            if not raw.isdigit():
-                raise HttpWireError(f"bad Content-Length {raw!r}")
-            self._length = int(raw)
-        if self._status in (204, 304) or 100 <= self._status < 200:
-            self._length = 0  # no body by definition (RFC 9112 §6.3 rule 1)
-            self._chunked = False
-        return True
+        del self._buf[: end + len(CRLF + CRLF)]
+        return head
+
+    def _skip(self, count: int) -> None:
+        self.skipped_bytes += count
+        del self._buf[:count]
 
     def _parse_chunks(self) -> None:
         # RFC 9112 §7.1: size in hex [;ext] CRLF, data CRLF, ..., 0 CRLF [trailers] CRLF

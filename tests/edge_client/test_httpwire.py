@@ -111,6 +111,42 @@ def test_garbage_status_line_is_an_error():
         parse(b"HTTP/1.1 abc Nope\r\n\r\n")
 
 
+@pytest.mark.parametrize(
+    ("head", "message"),
+    [
+        (b"HTTP/1.1 200 OK\r\nno colon here\r\n\r\n", "bad header line"),
+        (b"HTTP/1.1 200 OK\r\n Indented: x\r\n\r\n", "bad header line"),
+        (b"HTTP/1.1 200 OK\r\nContent-Length: 1e3\r\n\r\n", "bad Content-Length"),
+        (b"HTTP/1.1 304 Not Modified\r\nContent-Length: x\r\n\r\n", "bad Content-Length"),
+        (b"HTTP/2 200 OK\r\n\r\n", "bad status line"),
+        (b"HTTP/1.1\r\n\r\n", "bad status line"),
+    ],
+)
+def test_a_bad_head_says_what_is_wrong(head, message):
+    with pytest.raises(HttpWireError, match=message):
+        parse(head)
+
+
+def test_a_head_that_never_ends_is_refused():
+    parser = ResponseParser()
+    with pytest.raises(HttpWireError, match="response head too large"):
+        parser.feed(b"HTTP/1.1 200 OK\r\n" + b"X-Filler: y\r\n" * 2000)
+
+
+def test_repeated_headers_are_joined_and_the_reason_may_be_missing():
+    response = parse(b"HTTP/1.1 204\r\nVary: Accept\r\nvary: Cookie\r\n\r\n", close=False)
+    assert (response.status, response.reason) == (204, "")
+    assert response.headers == {"vary": "Accept, Cookie"}
+
+
+def test_chunked_wins_over_content_length():
+    raw = (
+        b"HTTP/1.1 200 OK\r\nContent-Length: 99\r\nTransfer-Encoding: chunked\r\n\r\n"
+        b"2\r\nok\r\n0\r\n\r\n"
+    )
+    assert parse(raw, close=False).body == b"ok"
+
+
 @given(st.binary(max_size=300))
 @example(b"HTTP/1.1 200 OK\r\nContent-Length: -1\r\n\r\n")
 @example(b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\nzz\r\n")
