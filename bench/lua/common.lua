@@ -1,5 +1,5 @@
 -- Shared by the bench scripts: per-thread status counts and a one-line JSON summary that
--- bench/server.py parses ("BENCH_JSON {...}"). Loaded with dofile from each script.
+-- bench/server/wrk.py parses ("BENCH_JSON {...}"). Loaded with dofile from each script.
 local threads = {}
 
 function setup(thread)
