@@ -15,8 +15,16 @@ import bench.server as package
 from bench.server.constants import HOST
 from bench.server.fixes import Clock
 from bench.server.helper import django_helper
-from bench.server.phases import run_ingest, run_poll, run_soak
-from bench.server.report import Figures, count_stored, print_table, summarize_profile
+from bench.server.phases import measure_ingest, measure_poll, measure_soak
+from bench.server.report import (
+    Figures,
+    count_stored,
+    print_table,
+    report_ingest,
+    report_poll,
+    report_soak,
+    summarize_profile,
+)
 from bench.server.stack import CLEANUP, ensure_wrk, make_stack, provision, start_server
 
 
@@ -35,11 +43,11 @@ def bench_db(db: str, opts: argparse.Namespace) -> None:
     clock = Clock()
     figures = Figures()
     print("- ingest", flush=True)
-    run_ingest(stack, opts, clock, figures)
+    report_ingest(measure_ingest(stack, opts, clock), figures)
     print("- poll", flush=True)
-    run_poll(stack, opts, figures)
+    report_poll(measure_poll(stack, opts), figures)
     print("- mixed run", flush=True)
-    run_soak(stack, opts, clock, figures)
+    report_soak(measure_soak(stack, opts, clock), figures)
     if stack.stop_server:
         CLEANUP.pop(stack.stop_server)
     count_stored(stack, figures)
