@@ -11,9 +11,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-MAVLINK = "mavlink"
-WAVE_GLIDER = "wave_glider"
-VESSEL_KINDS = (MAVLINK, WAVE_GLIDER)
+from vessels.kinds import MAVLINK, WAVE_GLIDER
 
 # ArduPilot Rover flight modes (ArduPilot Rover/mode.h, `enum Number`); INITIALISING is not
 # a mode an operator can ask for.
