@@ -160,7 +160,7 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
-    "fleet.middleware.BoatApiSlimMiddleware",
+    "vessels.middleware.BoatApiSlimMiddleware",
     "django.middleware.security.SecurityMiddleware",
     # Serves the vendored front-end assets (Leaflet, Swagger UI) itself: no CDN, no internet.
     "whitenoise.middleware.WhiteNoiseMiddleware",
@@ -239,10 +239,10 @@ REST_FRAMEWORK = {
         "rest_framework.authentication.SessionAuthentication",
         "rest_framework.authentication.TokenAuthentication",
     ],
-    "DEFAULT_PERMISSION_CLASSES": ["fleet.permissions.ModelPermissions"],
+    "DEFAULT_PERMISSION_CLASSES": ["vessels.permissions.ModelPermissions"],
     "DEFAULT_RENDERER_CLASSES": ["rest_framework.renderers.JSONRenderer"]
     + (["rest_framework.renderers.BrowsableAPIRenderer"] if DEBUG else []),
-    "DEFAULT_PARSER_CLASSES": ["fleet.api.JSONParser"],
+    "DEFAULT_PARSER_CLASSES": ["vessels.api.parsers.JSONParser"],
     "DEFAULT_PAGINATION_CLASS": "rest_framework.pagination.CursorPagination",
     "PAGE_SIZE": 500,
     "DEFAULT_SCHEMA_CLASS": "drf_spectacular.openapi.AutoSchema",

@@ -13,6 +13,7 @@ from django.conf import settings
 from django.db import connection, transaction
 from django.utils import timezone
 
+from telemetry.errors import BatchTooLarge
 from telemetry.models import Fix, SensorChannel
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.models import Vessel
@@ -40,6 +41,7 @@ def fix_ingest(
 ) -> IngestResult:
     """Store a batch of telemetry records for ``vessel``.
 
+    0. A batch over FIX_MAX_BATCH records is refused whole (BatchTooLarge), before any work.
     1. Each record is validated on its own; a bad one is reported by index and never costs
        the good ones of the batch.
     2. Records repeating a time already in this batch count as duplicates (first one wins).
@@ -47,6 +49,8 @@ def fix_ingest(
        (a store-and-forward retry) is a counted duplicate, exactly, even when two requests race.
     4. The vessel's last fix moves forward only if this batch holds a newer fix.
     """
+    if len(records) > settings.FIX_MAX_BATCH:
+        raise BatchTooLarge(limit=settings.FIX_MAX_BATCH, got=len(records))
     now = now or timezone.now()
     result = IngestResult()
     parse: Callable[..., FixData] = parse_legacy_fix if legacy else parse_fix

@@ -202,7 +202,7 @@ def test_a_batch_over_the_limit_is_a_400_telem_ack_naming_the_limit(
     settings.FIX_MAX_BATCH = 1
     response = post(boat_a, LISTING_1)
     assert response.status_code == 400
-    assert telem_ack(response) == ("false", "at most 1 records per request (got 2)")
+    assert telem_ack(response) == ("false", "At most 1 fixes per request (got 2).")
     assert not Fix.objects.exists()
 
 
