@@ -139,9 +139,7 @@ ALLOWED_HOSTS = env_list(
 CSRF_TRUSTED_ORIGINS = env_list("CSRF_TRUSTED_ORIGINS", [])
 
 INSTALLED_APPS = [
-    # SimpleAdminConfig: no autodiscover, because django-leaflet's admin module imports
-    # GeoDjango (GDAL), which this project deliberately does without (DESIGN §3).
-    # fleet.apps registers the project's own admin modules instead.
+    # No autodiscover: see fleet.apps (django-leaflet's admin module needs GDAL).
     "django.contrib.admin.apps.SimpleAdminConfig",
     "django.contrib.auth",
     "django.contrib.contenttypes",
