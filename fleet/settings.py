@@ -13,6 +13,8 @@ from urllib.parse import parse_qsl, unquote, urlsplit
 
 from django.core.exceptions import ImproperlyConfigured
 
+from fleet.files import write_private
+
 BASE_DIR = Path(__file__).resolve().parent.parent
 
 _TRUE = {"1", "true", "yes", "on"}
@@ -106,13 +108,6 @@ DEBUG = env_bool("DEBUG", False)
 # ALLOWED_HOSTS defaults to this machine only, so a forgotten variable fails closed (and
 # fleet.W002 warns when non-local hosts are served without it).
 PRODUCTION = env_bool("PRODUCTION", False)
-
-
-def write_private(path: Path, text: str) -> None:
-    """Write a file only its owner can read, from the first byte (no chmod-after window)."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(fd, "w") as handle:
-        handle.write(text)
 
 
 def _secret_key() -> str:

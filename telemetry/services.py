@@ -17,6 +17,7 @@ from telemetry.errors import BatchTooLarge
 from telemetry.models import Fix, SensorChannel
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.models import Vessel
+from vessels.services import vessel_record_fix
 
 # Rows per INSERT: 9 parameters each stays far below SQLite's 32,766-variable limit.
 INSERT_CHUNK = 1000
@@ -174,39 +175,15 @@ def _key(value: Any) -> dt.datetime:
     return dt.datetime.fromisoformat(text).replace(tzinfo=None)
 
 
-@functools.cache
-def _advance_sql(vendor: str) -> str:
-    meta, qn = Vessel._meta, connection.ops.quote_name
-    seen, fix, fix_at = (
-        qn(meta.get_field(n).column) for n in ("last_seen_at", "last_fix", "last_fix_at")
-    )
-    newer = f"({fix_at} IS NULL OR {fix_at} < %s)"
-    return (
-        f"UPDATE {qn(meta.db_table)} SET {seen} = %s, "
-        f"{fix} = CASE WHEN {newer} THEN %s ELSE {fix} END, "
-        f"{fix_at} = CASE WHEN {newer} THEN %s ELSE {fix_at} END "
-        f"WHERE {qn(meta.pk.column)} = %s"
-    )
-
-
 def _advance_last_fix(vessel: Vessel, new: list[FixData], now: dt.datetime) -> None:
-    """Mark the vessel seen now; move its last fix forward only if ``new`` holds a newer one.
-
-    One conditional UPDATE, written once (as the insert is): backlogs arrive oldest first and
-    out of order, so "newer" is decided in the database, under the row lock, not here. The
-    ORM version cost more than the insert itself on a single-fix post (profiled).
-    """
-    meta = Vessel._meta
-    prep_time = meta.get_field("last_fix_at").get_db_prep_save
-    seen = prep_time(now, connection)
+    """Mark the vessel seen now; offer it the newest of ``new`` as its last fix."""
     if not new:
-        Vessel.objects.filter(pk=vessel.pk).update(last_seen_at=now)
+        vessel_record_fix(vessel_id=vessel.pk, seen_at=now)
         return
     newest = max(new, key=lambda f: f.recorded_at)
-    at = prep_time(newest.recorded_at, connection)
-    summary = meta.get_field("last_fix").get_db_prep_save(fix_summary(newest), connection)
-    with connection.cursor() as cursor:
-        cursor.execute(_advance_sql(connection.vendor), [seen, at, summary, at, at, vessel.pk])
+    vessel_record_fix(
+        vessel_id=vessel.pk, seen_at=now, fix_at=newest.recorded_at, summary=fix_summary(newest)
+    )
 
 
 def fix_summary(fix: FixData) -> dict[str, Any]:
