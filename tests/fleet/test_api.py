@@ -1,0 +1,140 @@
+"""The operator API as assembled: who may call what, the OpenAPI schema and the docs page."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+from django.contrib.auth.models import User
+from rest_framework.test import APIClient
+
+from commands.lifecycle import Status
+from commands.models import Command
+from tests.support import VESSELS, cancel_url, commands_url, fixes_url
+from vessels.models import Vessel
+
+Request = Callable[[APIClient, Command], Any]
+ENDPOINTS: dict[str, Request] = {
+    "vessel list": lambda c, cmd: c.get(VESSELS),
+    "vessel detail": lambda c, cmd: c.get(f"{VESSELS}spab/"),
+    "fixes": lambda c, cmd: c.get(fixes_url()),
+    "fixes csv": lambda c, cmd: c.get(fixes_url() + "?format=csv"),
+    "command list": lambda c, cmd: c.get(commands_url()),
+    "command create": lambda c, cmd: c.post(
+        commands_url(), {"kind": "hold", "params": {}}, format="json"
+    ),
+    "command cancel": lambda c, cmd: c.post(cancel_url(cmd.uid)),
+}
+OK = {"command create": 201}
+
+
+@pytest.mark.parametrize("endpoint", list(ENDPOINTS))
+def test_anonymous_is_refused(anonymous: APIClient, command_a: Command, endpoint: str) -> None:
+    response = ENDPOINTS[endpoint](anonymous, command_a)
+    assert response.status_code in (401, 403)
+    assert response.json()["error"] == "not_authenticated"
+
+
+@pytest.mark.parametrize("endpoint", list(ENDPOINTS))
+def test_an_operator_without_permissions_is_refused(
+    readonly: APIClient, command_a: Command, endpoint: str
+) -> None:
+    response = ENDPOINTS[endpoint](readonly, command_a)
+    assert response.status_code == 403
+    assert response.json() == {
+        "error": "permission_denied",
+        "detail": "You do not have permission to perform this action.",
+    }
+    assert Command.objects.count() == 1
+    command_a.refresh_from_db()
+    assert command_a.status == Status.QUEUED
+
+
+@pytest.mark.parametrize("persona", ["boat_a", "boat_b", "revoked_boat"])
+@pytest.mark.parametrize("endpoint", list(ENDPOINTS))
+def test_boat_keys_are_refused_on_the_operator_api(
+    request: pytest.FixtureRequest, command_a: Command, persona: str, endpoint: str
+) -> None:
+    response = ENDPOINTS[endpoint](request.getfixturevalue(persona), command_a)
+    assert response.status_code == 403
+    assert Command.objects.count() == 1
+    command_a.refresh_from_db()
+    assert command_a.status == Status.QUEUED
+
+
+@pytest.mark.parametrize("persona", ["operator", "session_operator", "token_operator"])
+@pytest.mark.parametrize("endpoint", list(ENDPOINTS))
+def test_an_operator_with_permissions_is_served(
+    request: pytest.FixtureRequest, command_a: Command, persona: str, endpoint: str
+) -> None:
+    client: APIClient = request.getfixturevalue(persona)  # test clients skip CSRF checks
+    response = ENDPOINTS[endpoint](client, command_a)
+    assert response.status_code == OK.get(endpoint, 200)
+
+
+def test_a_session_post_needs_the_csrf_token(operator_user: User, command_a: Command) -> None:
+    client = APIClient(enforce_csrf_checks=True)
+    client.force_login(operator_user)
+    response = client.post(cancel_url(command_a.uid))
+    assert response.status_code == 403
+    assert "CSRF" in response.json()["detail"]
+    command_a.refresh_from_db()
+    assert command_a.status == Status.QUEUED
+
+
+# --- vessels ---
+
+
+def test_the_openapi_schema_documents_both_apis(session_operator: APIClient) -> None:
+    response = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json")
+    assert response.status_code == 200
+    schema = response.json()
+    assert schema["openapi"].startswith("3.")
+    for path in (
+        "/api/v1/boat/telemetry/",
+        "/api/v1/boat/commands/",
+        "/api/v1/boat/commands/{uid}/ack/",
+        "/api/v1/vessels/",
+        "/api/v1/vessels/{slug}/fixes/",
+        "/api/v1/vessels/{slug}/commands/",
+        "/api/v1/commands/{uid}/cancel/",
+    ):
+        assert path in schema["paths"], path
+    assert not any(p.startswith("/spab/") for p in schema["paths"])
+    # Boats and operators authenticate differently, and the schema says so.
+    assert schema["components"]["securitySchemes"]["vesselKey"]["name"] == "Authorization"
+    assert schema["paths"]["/api/v1/boat/commands/"]["get"]["security"] == [{"vesselKey": []}]
+    assert {"vesselKey": []} not in schema["paths"]["/api/v1/vessels/"]["get"]["security"]
+
+
+def test_the_docs_page_uses_only_local_assets(session_operator: APIClient) -> None:
+    response = session_operator.get("/api/v1/docs/")
+    assert response.status_code == 200
+    html = response.content.decode()
+    assets = re.findall(r'(?:src|href)="([^"]+)"', html)
+    assert any("swagger-ui" in a for a in assets)
+    assert all(a.startswith("/static/") for a in assets), assets
+    assert "cdn" not in html.lower()
+    assert not re.search(r"https?://(?!localhost|127\.0\.0\.1|testserver)", html)
+
+
+@pytest.mark.parametrize("path", ["/api/v1/schema/", "/api/v1/docs/"])
+def test_schema_and_docs_need_a_login(anonymous: APIClient, boat_a: APIClient, path: str) -> None:
+    assert anonymous.get(path).status_code in (401, 403)
+    assert boat_a.get(path).status_code in (401, 403)
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        "/api/v1/vessels/nope/fixes/",
+        "/api/v1/vessels/nope/commands/",
+        "/api/v1/vessels/spab/fixes/?from=x",
+    ],
+)
+def test_an_operator_without_rights_cannot_probe_which_vessels_exist(
+    readonly: APIClient, vessel_a: Vessel, path: str
+) -> None:
+    assert readonly.get(path).status_code == 403
