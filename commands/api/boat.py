@@ -69,6 +69,16 @@ class CommandListView(BoatView):
         response["ETag"] = etag
         return response
 
+    @extend_schema(exclude=True)
+    def head(self, request: Request) -> Response | HttpResponseNotModified:
+        """The ETag alone. Django would route HEAD to get(), and a read must never hand a
+        command over: the boat would never see the body, yet the command would be `sent`."""
+        etag = commands_etag(self.vessel(request))
+        matches = etag_matches(request.META.get("HTTP_IF_NONE_MATCH"), etag)
+        response = HttpResponseNotModified() if matches else Response()
+        response["ETag"] = etag
+        return response
+
 
 class AckView(BoatView):
     @extend_schema(

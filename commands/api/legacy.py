@@ -33,3 +33,7 @@ class LegacyCommandsView(LegacyBoatView):
     def get(self, request: Request) -> Response:
         commands = command_deliver_legacy(vessel=self.vessel(request))
         return Response([{"type": "command"}] + [legacy_command(c) for c in commands])
+
+    def head(self, request: Request) -> Response:
+        # Not get(): delivery to a legacy client counts as acknowledged, and HEAD reads.
+        return Response()

@@ -271,3 +271,19 @@ def test_an_ack_detail_the_database_cannot_store_is_kept_readable(
 
 
 # --- telemetry ---
+
+
+def test_head_on_the_poll_answers_the_etag_and_hands_nothing_over(
+    boat_a: APIClient, command_a: Command
+) -> None:
+    response = boat_a.head(COMMANDS)
+    assert response.status_code == 200
+    assert response.content == b""
+    etag = response["ETag"]
+    command_a.refresh_from_db()
+    assert command_a.status == Status.QUEUED
+    assert boat_a.head(COMMANDS, HTTP_IF_NONE_MATCH=etag).status_code == 304
+    # The command is still there for the real poll, which carries the same tag.
+    polled = boat_a.get(COMMANDS)
+    assert [c["uid"] for c in polled.json()["commands"]] == [str(command_a.uid)]
+    assert polled["ETag"] == etag

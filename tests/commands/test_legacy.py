@@ -78,3 +78,13 @@ def test_another_boats_commands_are_never_listed(boat_b: APIClient, vessel_a: Ve
 
 def test_the_api_key_header_persona_works_on_legacy_commands(key_a: str) -> None:
     assert boat_client(key_a).get(LEGACY_COMMANDS).json() == [{"type": "command"}]
+
+
+def test_head_on_request_commands_hands_nothing_over(boat_a: APIClient, vessel_a: Vessel) -> None:
+    command = command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -31.9, "lon": 115.8})
+    response = boat_a.head(LEGACY_COMMANDS)
+    assert response.status_code == 200
+    assert response.content == b""
+    command.refresh_from_db()
+    assert command.status == Status.QUEUED
+    assert [c["taskId"] for c in boat_a.get(LEGACY_COMMANDS).json()[1:]] == [str(command.uid)]
