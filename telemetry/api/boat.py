@@ -15,6 +15,7 @@ from rest_framework.exceptions import ParseError
 from rest_framework.request import Request
 from rest_framework.response import Response
 
+from telemetry.api.parsers import LegacyTelemetryJSONParser, TelemetryJSONParser
 from telemetry.services import fix_ingest
 from vessels.api.boat import BoatView, LegacyBoatView, telem_ack
 
@@ -39,6 +40,8 @@ _IngestResult = inline_serializer(
 
 
 class TelemetryView(BoatView):
+    parser_classes = [TelemetryJSONParser]
+
     @extend_schema(request=OpenApiTypes.OBJECT, responses={200: _IngestResult}, tags=["boat"])
     def post(self, request: Request) -> Response:
         """Store a batch of fixes. Bad fixes are reported by index; the good ones are kept."""
@@ -49,6 +52,8 @@ class TelemetryView(BoatView):
 @extend_schema(exclude=True)
 class LegacyDataView(LegacyBoatView):
     """`POST /spab/data.cgi`: Listing 1 records (one object or a list) → `telemAck`."""
+
+    parser_classes = [LegacyTelemetryJSONParser]
 
     def post(self, request: Request) -> Response:
         data = request.data

@@ -235,3 +235,27 @@ def test_the_good_fixes_of_a_mixed_batch_are_stored(
     ]
     vessel_a.refresh_from_db()
     assert vessel_a.last_fix["lat"] == -32.0
+
+
+ODD_NUMBERS = [
+    ('"lat": NaN, "lon": 115.86', "lat"),
+    ('"lat": Infinity, "lon": 115.86', "lat"),
+    ('"lat": -31.95, "lon": -Infinity', "lon"),
+    ('"lat": ' + "9" * 5000 + ', "lon": 115.86', "lat"),
+    ('"lat": -31.95, "lon": 115.86, "readings": {"t": NaN}', "readings"),
+]
+
+
+@pytest.mark.parametrize(("position", "field"), ODD_NUMBERS)
+def test_a_non_standard_number_costs_only_its_own_fix(
+    boat_a: APIClient, vessel_a: Vessel, position: str, field: str
+) -> None:
+    good = '{"time": "2026-11-23T10:00:00Z", "lat": -31.95, "lon": 115.86}'
+    odd = '{"time": "2026-11-23T10:00:10Z", ' + position + "}"
+    body = '{"fixes": [' + good + ", " + odd + "]}"
+    response = boat_a.generic("POST", TELEMETRY, body, content_type="application/json")
+    assert response.status_code == 200, response.content
+    answer = response.json()
+    assert answer["accepted"] == 1
+    assert [(r["index"], list(r["errors"])) for r in answer["rejected"]] == [(1, [field])]
+    assert Fix.objects.filter(vessel=vessel_a).count() == 1

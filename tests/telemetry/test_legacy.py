@@ -4,9 +4,11 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 from typing import Any
 
 import pytest
+import requests
 from django.utils import timezone
 from rest_framework.test import APIClient
 
@@ -181,3 +183,45 @@ def test_a_reading_name_the_database_cannot_store_costs_only_its_own_record(
     success, message = telem_ack(response)
     assert success == "false" and "accepted 1" in message and "record 1" in message
     assert vessel_a.fixes.count() == 1
+
+
+@pytest.mark.parametrize(
+    "content_type",
+    ["text/plain", "application/x-www-form-urlencoded", "application/octet-stream", ""],
+)
+def test_data_cgi_reads_json_whatever_the_content_type(
+    boat_a: APIClient, vessel_a: Vessel, content_type: str
+) -> None:
+    response = boat_a.generic("POST", DATA, json.dumps(LISTING_1), content_type=content_type)
+    assert response.status_code == 200
+    assert telem_ack(response)[0] == "true"
+    assert Fix.objects.filter(vessel=vessel_a).count() == 2
+
+
+@pytest.mark.django_db(transaction=True)
+def test_data_cgi_reads_a_body_sent_with_no_content_type_at_all(
+    live_server: Any, vessel_a: Vessel, key_a: str
+) -> None:
+    # requests sends bytes with no Content-Type header, as the thesis' hand-built client did.
+    response = requests.post(
+        f"{live_server.url}{DATA}?key={key_a}", data=json.dumps(LISTING_1).encode(), timeout=10
+    )
+    assert "Content-Type" not in response.request.headers
+    assert response.status_code == 200, response.text
+    assert Fix.objects.filter(vessel=vessel_a).count() == 2
+
+
+def test_a_non_standard_number_costs_only_its_own_record(
+    boat_a: APIClient, vessel_a: Vessel
+) -> None:
+    body = (
+        '[{"timestamp": 1536551550, "latitude": -31.95, "longitude": 115.86},'
+        ' {"timestamp": 1536551560, "latitude": NaN, "longitude": 115.86},'
+        ' {"timestamp": 1536551570, "latitude": -31.95, "longitude": 115.86, "t": Infinity}]'
+    )
+    response = boat_a.generic("POST", DATA, body, content_type="application/json")
+    assert response.status_code == 200
+    success, message = telem_ack(response)
+    assert "accepted 1" in message and "record 1: latitude" in message
+    assert "record 2: t must be a number" in message
+    assert Fix.objects.filter(vessel=vessel_a).count() == 1
