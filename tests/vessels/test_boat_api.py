@@ -128,3 +128,19 @@ def test_a_key_use_updates_last_seen_even_without_fixes(
     assert boat_a.get(COMMANDS).status_code == 200
     vessel_a.refresh_from_db()
     assert vessel_a.last_seen_at is not None
+
+
+@pytest.mark.parametrize(
+    ("path", "allowed"),
+    [
+        ("/api/v1/boat/commands/", {"GET", "HEAD", "OPTIONS"}),
+        ("/api/v1/boat/telemetry/", {"POST", "OPTIONS"}),
+        ("/spab/requestCommands.cgi", {"GET", "HEAD", "OPTIONS"}),
+    ],
+)
+def test_a_405_on_a_boat_path_says_which_methods_are_allowed(
+    boat_a: APIClient, path: str, allowed: set[str]
+) -> None:
+    response = boat_a.put(path, {}, format="json")
+    assert response.status_code == 405
+    assert {m.strip() for m in response["Allow"].split(",")} == allowed
