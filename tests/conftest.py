@@ -98,7 +98,7 @@ def anonymous() -> APIClient:
     return APIClient()
 
 
-def _user(username: str, perms: list[str], *, staff: bool = True) -> User:
+def make_user(username: str, perms: list[str], *, staff: bool = True) -> User:
     user = User.objects.create_user(
         username, f"{username}@example.org", "pw-" + username, is_staff=staff
     )
@@ -113,13 +113,13 @@ def _user(username: str, perms: list[str], *, staff: bool = True) -> User:
 @pytest.fixture
 def operator_user(db: None) -> User:
     """Alice: an operator with the rights to read the fleet and command it."""
-    return _user("alice", OPERATOR_PERMS)
+    return make_user("alice", OPERATOR_PERMS)
 
 
 @pytest.fixture
 def readonly_user(db: None) -> User:
     """Bob: logged in, staff, but without any model permission."""
-    return _user("bob", [])
+    return make_user("bob", [])
 
 
 @pytest.fixture

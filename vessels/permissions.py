@@ -45,3 +45,14 @@ class ChangeModelPermissions(ModelPermissions):
     """For POST actions that change an existing object (cancel), not create one."""
 
     perms_map = {**ModelPermissions.perms_map, "POST": ["%(app_label)s.change_%(model_name)s"]}
+
+
+class CanViewVessels(BasePermission):
+    """For endpoints under /vessels/<slug>/: naming a vessel needs the right to see vessels.
+
+    Checked before the slug is looked up, so an operator allowed to read commands (or fixes)
+    but not vessels gets the same 403 for a slug that exists and one that does not.
+    """
+
+    def has_permission(self, request: Any, view: Any) -> bool:
+        return bool(request.user and request.user.has_perm("vessels.view_vessel"))

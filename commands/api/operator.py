@@ -14,7 +14,7 @@ from rest_framework.views import APIView
 from commands.models import Command, CommandEvent, Source
 from commands.selectors import command_by_uid
 from commands.services import command_cancel, command_enqueue
-from vessels.permissions import ChangeModelPermissions
+from vessels.permissions import CanViewVessels, ChangeModelPermissions, ModelPermissions
 from vessels.selectors import vessel_by_slug
 
 
@@ -71,6 +71,7 @@ class VesselCommandsView(generics.ListCreateAPIView):
     serializer_class = CommandSerializer
     pagination_class = CommandCursor
     queryset = Command.objects.none()  # for the model permission check
+    permission_classes = [ModelPermissions, CanViewVessels]
 
     def get_queryset(self):  # noqa: ANN201 (DRF hook)
         vessel = vessel_by_slug(self.kwargs["slug"])

@@ -18,6 +18,7 @@ from rest_framework.request import Request
 from telemetry.models import Fix
 from telemetry.parsing import parse_time
 from telemetry.selectors import fixes_in_range
+from vessels.permissions import CanViewVessels, ModelPermissions
 from vessels.selectors import vessel_by_slug
 
 CSV_COLUMNS = ["recorded_at", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings"]
@@ -108,6 +109,7 @@ class VesselFixesView(ListAPIView):
     serializer_class = FixSerializer
     pagination_class = FixCursor
     queryset = Fix.objects.none()  # for the model permission check
+    permission_classes = [ModelPermissions, CanViewVessels]
 
     def get_queryset(self):  # noqa: ANN201 (DRF hook)
         return fixes_in_range(

@@ -12,6 +12,7 @@ from rest_framework.test import APIClient
 
 from commands.lifecycle import Status
 from commands.models import Command
+from tests.conftest import make_user
 from tests.support import VESSELS, cancel_url, commands_url, fixes_url
 from vessels.models import Vessel
 
@@ -138,3 +139,24 @@ def test_an_operator_without_rights_cannot_probe_which_vessels_exist(
     readonly: APIClient, vessel_a: Vessel, path: str
 ) -> None:
     assert readonly.get(path).status_code == 403
+
+
+@pytest.mark.parametrize(
+    ("perms", "path"),
+    [
+        (["commands.view_command"], "/api/v1/vessels/{}/commands/"),
+        (["commands.view_command", "commands.add_command"], "/api/v1/vessels/{}/commands/"),
+        (["telemetry.view_fix"], "/api/v1/vessels/{}/fixes/"),
+    ],
+)
+def test_partial_rights_do_not_tell_which_vessel_slugs_exist(
+    vessel_a: Vessel, perms: list[str], path: str
+) -> None:
+    client = APIClient()
+    client.force_authenticate(make_user("carol", perms))
+    answers = {
+        (client.get(path.format(slug)).status_code, client.post(path.format(slug)).status_code)
+        for slug in ("spab", "nope")
+    }
+    assert len(answers) == 1  # the same for a vessel that exists and one that does not
+    assert answers.pop()[0] == 403
