@@ -2,22 +2,43 @@
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
+from django.core.exceptions import RequestDataTooBig
 from django.core.exceptions import ValidationError as DjangoValidationError
+from django.db import InterfaceError, OperationalError
 from django.http import Http404
 from rest_framework import exceptions, status
 from rest_framework.response import Response
 from rest_framework.views import exception_handler as drf_exception_handler
 
 from commands.errors import CatalogError, CommandError, CommandNotFound, TransitionError
+from fleet.error_views import too_large_detail
 from telemetry.errors import TelemetryError
+
+logger = logging.getLogger(__name__)
 
 
 class Conflict(exceptions.APIException):
     status_code = status.HTTP_409_CONFLICT
     default_code = "conflict"
     default_detail = "The request conflicts with the current state."
+
+
+class TooLarge(exceptions.APIException):
+    status_code = status.HTTP_413_REQUEST_ENTITY_TOO_LARGE
+    default_code = "too_large"
+
+
+class DatabaseUnavailable(exceptions.APIException):
+    """The database went away mid-request (a restart, a failover): nothing was committed,
+    and the same request will work in a moment. Boats retry from their outbox."""
+
+    status_code = status.HTTP_503_SERVICE_UNAVAILABLE
+    default_code = "database_unavailable"
+    default_detail = "The database is unavailable for a moment; retry shortly."
+    retry_after_s = 5
 
 
 def domain_to_api(exc: Exception) -> Exception:
@@ -36,6 +57,11 @@ def domain_to_api(exc: Exception) -> Exception:
         )
     if isinstance(exc, CommandError):
         return exceptions.ValidationError(exc.as_dict())
+    if isinstance(exc, RequestDataTooBig):
+        return TooLarge(too_large_detail())
+    if isinstance(exc, OperationalError | InterfaceError):
+        logger.warning("database error answered 503: %s", exc)
+        return DatabaseUnavailable()
     if isinstance(exc, TelemetryError):
         return exceptions.ParseError(exc.message)
     if isinstance(exc, DjangoValidationError):
@@ -63,4 +89,6 @@ def exception_handler(exc: Exception, context: dict[str, Any]) -> Response | Non
             else response.data
         )
         response.data = {"error": code, "detail": detail}
+    if isinstance(exc, DatabaseUnavailable):
+        response["Retry-After"] = str(exc.retry_after_s)
     return response

@@ -35,3 +35,9 @@ urlpatterns = [
     path("spab/", include(command_urls.legacy_urlpatterns)),
     path("", include("fleet.pages")),
 ]
+
+# JSON (or a telemAck) instead of HTML error pages on the API and boat paths.
+handler400 = "fleet.error_views.bad_request"
+handler403 = "fleet.error_views.permission_denied"
+handler404 = "fleet.error_views.page_not_found"
+handler500 = "fleet.error_views.server_error"

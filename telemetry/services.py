@@ -5,12 +5,13 @@ from __future__ import annotations
 import datetime as dt
 import functools
 import json
+import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from django.conf import settings
-from django.db import connection, transaction
+from django.db import InterfaceError, OperationalError, connection, transaction
 from django.utils import timezone
 
 from telemetry.errors import BatchTooLarge
@@ -18,6 +19,8 @@ from telemetry.models import Fix, SensorChannel
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.models import Vessel
 from vessels.services import vessel_record_fix
+
+logger = logging.getLogger(__name__)
 
 # Rows per INSERT: 9 parameters each stays far below SQLite's 32,766-variable limit.
 INSERT_CHUNK = 1000
@@ -70,12 +73,35 @@ def fix_ingest(
             result.duplicates += 1
         else:
             fixes[fix.recorded_at] = fix
-    with transaction.atomic():
-        inserted = _insert_new(vessel.pk, list(fixes.values()), now)
-        result.accepted = len(inserted)
-        result.duplicates += len(fixes) - len(inserted)
-        _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
+    inserted = _store(vessel, fixes, now)
+    result.accepted = len(inserted)
+    result.duplicates += len(fixes) - len(inserted)
     return result
+
+
+def _store(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) -> list[Any]:
+    """Insert the fixes and advance the vessel's last fix, in one transaction.
+
+    A connection lost before COMMIT (a database restart, a failover) rolled everything back:
+    try once more on a fresh connection. Safe even if it was the COMMIT's answer that was
+    lost, because the insert is idempotent (the retry counts those fixes as duplicates).
+    Inside a caller's transaction there is nothing to retry from: the error goes up.
+    """
+    try:
+        return _store_once(vessel, fixes, now)
+    except (OperationalError, InterfaceError):
+        if connection.in_atomic_block:
+            raise
+        logger.warning("ingest for %s lost its database connection; retrying", vessel.slug)
+        connection.close()
+    return _store_once(vessel, fixes, now)
+
+
+@transaction.atomic
+def _store_once(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) -> list[Any]:
+    inserted = _insert_new(vessel.pk, list(fixes.values()), now)
+    _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
+    return inserted
 
 
 FIX_COLUMNS = (

@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import Callable
 from typing import Any
 
 import pytest
 from django.contrib.auth.models import User
+from django.test import Client
 from rest_framework.test import APIClient
 
 from commands.lifecycle import Status
 from commands.models import Command
 from tests.conftest import make_user
 from tests.support import VESSELS, cancel_url, commands_url, fixes_url
+from vessels.api import views as vessel_views
 from vessels.models import Vessel
 
 Request = Callable[[APIClient, Command], Any]
@@ -160,3 +163,77 @@ def test_partial_rights_do_not_tell_which_vessel_slugs_exist(
     }
     assert len(answers) == 1  # the same for a vessel that exists and one that does not
     assert answers.pop()[0] == 403
+
+
+@pytest.fixture
+def no_raise(operator_user: User) -> Client:
+    """Alice through a client that returns Django's 500 page instead of raising."""
+    client = Client(raise_request_exception=False)
+    client.force_login(operator_user)
+    return client
+
+
+@pytest.mark.parametrize("path", ["/api/v1/nope/", "/api/v1/vessels/spab/nope/", "/api/nope"])
+def test_an_unmatched_api_url_is_a_json_404(no_raise: Client, vessel_a: Vessel, path: str) -> None:
+    response = no_raise.get(path)
+    assert response.status_code == 404
+    assert response.json() == {"error": "not_found", "detail": "No such endpoint."}
+
+
+def test_an_unhandled_error_under_the_api_is_a_json_500(
+    no_raise: Client, vessel_a: Vessel, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def broken() -> Any:
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(vessel_views, "vessel_list", broken)
+    response = no_raise.get(VESSELS)
+    assert response.status_code == 500
+    assert response.json()["error"] == "server_error"
+
+
+@pytest.mark.parametrize(
+    ("path", "shape"),
+    [
+        ("/api/v1/boat/telemetry/", "api"),
+        ("/api/v1/vessels/spab/commands/", "api"),
+        ("/spab/data.cgi", "legacy"),
+    ],
+)
+def test_a_body_over_the_size_limit_is_a_json_413(
+    no_raise: Client, key_a: str, settings: Any, path: str, shape: str
+) -> None:
+    settings.DATA_UPLOAD_MAX_MEMORY_SIZE = 1000
+    body = json.dumps([{"lat": 1, "lon": 2, "pad": "x" * 2000}])
+    headers = {"HTTP_AUTHORIZATION": f"Api-Key {key_a}"} if "commands" not in path else {}
+    response = no_raise.post(path, body, content_type="application/json", **headers)
+    assert response.status_code == 413
+    answer = response.json()
+    detail = answer["detail"] if shape == "api" else answer[1]["message"]
+    assert "over 1000 bytes" in detail
+
+
+@pytest.mark.parametrize(
+    "path",
+    ["/api/v1/vessels/%00/", "/api/v1/vessels/%00/fixes/", "/api/v1/commands/%00/cancel/"],
+)
+def test_a_nul_in_an_api_path_is_a_404(no_raise: Client, vessel_a: Vessel, path: str) -> None:
+    response = no_raise.get(path)
+    assert response.status_code == 404
+    assert response.json()["error"] == "not_found"
+
+
+@pytest.mark.parametrize(
+    "query",
+    [
+        "/admin/commands/command/?status__exact=%00",
+        "/admin/vessels/vessel/?q=%00",
+        "/admin/telemetry/fix/?vessel=%00",
+        "/api/v1/vessels/spab/fixes/?from=%00",
+    ],
+)
+def test_a_nul_in_a_filter_value_is_a_404_not_a_500(
+    admin_ui: Client, vessel_a: Vessel, query: str
+) -> None:
+    admin_ui.raise_request_exception = False
+    assert admin_ui.get(query).status_code == 404
