@@ -48,10 +48,24 @@ def command_wire(command: Command) -> dict[str, Any]:
     }
 
 
+_CommandsOut = inline_serializer(
+    "BoatCommand",
+    many=True,
+    fields={
+        "uid": serializers.UUIDField(),
+        "kind": serializers.CharField(),
+        "params": serializers.DictField(),
+        "created_at": serializers.DateTimeField(),
+        "expires_at": serializers.DateTimeField(allow_null=True),
+    },
+)
+_CommandList = inline_serializer("BoatCommandList", {"commands": _CommandsOut})
+
+
 class CommandListView(BoatView):
     @extend_schema(
         parameters=[OpenApiParameter("If-None-Match", str, OpenApiParameter.HEADER)],
-        responses={200: OpenApiTypes.OBJECT, 304: None},
+        responses={200: _CommandList, 304: None},
         tags=["boat"],
     )
     def get(self, request: Request) -> Response | HttpResponseNotModified:

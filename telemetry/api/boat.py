@@ -8,8 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from drf_spectacular.types import OpenApiTypes
-from drf_spectacular.utils import extend_schema, inline_serializer
+from drf_spectacular.utils import extend_schema, extend_schema_field, inline_serializer
 from rest_framework import serializers, status
 from rest_framework.exceptions import ParseError
 from rest_framework.request import Request
@@ -29,6 +28,28 @@ def records_from_body(data: Any) -> list[Any]:
     return data
 
 
+@extend_schema_field({"oneOf": [{"type": "string", "format": "date-time"}, {"type": "number"}]})
+class FixTime(serializers.Field):
+    """ISO 8601 with a UTC offset, or Unix seconds."""
+
+
+class FixIn(serializers.Serializer):
+    """The wire shape of one fix, for the schema only: telemetry.parsing validates, so that
+    one bad fix is reported by index instead of failing the batch."""
+
+    time = FixTime(help_text="ISO 8601 with a UTC offset, or Unix seconds")
+    lat = serializers.FloatField(min_value=-90, max_value=90)
+    lon = serializers.FloatField(min_value=-180, max_value=180)
+    heading_deg = serializers.FloatField(required=False, min_value=0, max_value=360)
+    speed_mps = serializers.FloatField(required=False, min_value=0, max_value=1000)
+    battery_v = serializers.FloatField(required=False)
+    readings = serializers.DictField(
+        child=serializers.FloatField(), required=False, help_text="name: number, up to 64"
+    )
+
+
+_Batch = inline_serializer("TelemetryBatch", {"fixes": FixIn(many=True)})
+
 _IngestResult = inline_serializer(
     "IngestResult",
     {
@@ -42,9 +63,10 @@ _IngestResult = inline_serializer(
 class TelemetryView(BoatView):
     parser_classes = [TelemetryJSONParser]
 
-    @extend_schema(request=OpenApiTypes.OBJECT, responses={200: _IngestResult}, tags=["boat"])
+    @extend_schema(request=_Batch, responses={200: _IngestResult}, tags=["boat"])
     def post(self, request: Request) -> Response:
-        """Store a batch of fixes. Bad fixes are reported by index; the good ones are kept."""
+        """Store a batch of fixes (`{"fixes": [...]}`, or the bare list). Bad fixes are
+        reported by index; the good ones are kept; re-sent fixes count as duplicates."""
         result = fix_ingest(vessel=self.vessel(request), records=records_from_body(request.data))
         return Response(result.as_dict())
 

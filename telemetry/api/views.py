@@ -8,7 +8,8 @@ from collections.abc import Iterator
 from typing import Any
 
 from django.http import StreamingHttpResponse
-from drf_spectacular.utils import OpenApiParameter, extend_schema
+from drf_spectacular.types import OpenApiTypes
+from drf_spectacular.utils import OpenApiParameter, OpenApiResponse, extend_schema
 from rest_framework import serializers
 from rest_framework.exceptions import ValidationError
 from rest_framework.generics import ListAPIView
@@ -101,6 +102,12 @@ def _csv_rows(fixes: Any) -> Iterator[str]:
         OpenApiParameter("to", str, description="ISO 8601 or Unix seconds (exclusive)"),
         OpenApiParameter("format", str, enum=["json", "csv"]),
     ],
+    responses={
+        (200, "application/json"): FixSerializer(many=True),
+        (200, "text/csv"): OpenApiResponse(
+            OpenApiTypes.STR, description=f"`?format=csv`: columns {', '.join(CSV_COLUMNS)}"
+        ),
+    },
     tags=["operator"],
 )
 class VesselFixesView(ListAPIView):

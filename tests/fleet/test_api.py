@@ -237,3 +237,36 @@ def test_a_nul_in_a_filter_value_is_a_404_not_a_500(
 ) -> None:
     admin_ui.raise_request_exception = False
     assert admin_ui.get(query).status_code == 404
+
+
+def test_every_operation_documents_the_errors_it_can_answer(session_operator: APIClient) -> None:
+    schema = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
+    error = {"$ref": "#/components/schemas/Error"}
+    expected = {
+        ("post", "/api/v1/boat/telemetry/"): {"400", "401", "403", "413", "415", "503"},
+        ("get", "/api/v1/boat/commands/"): {"304", "401", "403", "503"},
+        ("post", "/api/v1/boat/commands/{uid}/ack/"): {"400", "404", "409", "415"},
+        ("get", "/api/v1/vessels/{slug}/fixes/"): {"400", "401", "403", "404"},
+        ("post", "/api/v1/vessels/{slug}/commands/"): {"400", "403", "404", "415"},
+        ("post", "/api/v1/commands/{uid}/cancel/"): {"403", "404", "409"},
+    }
+    for (method, path), codes in expected.items():
+        responses = schema["paths"][path][method]["responses"]
+        assert codes <= set(responses), (method, path, sorted(responses))
+        for code in codes - {"304"}:
+            assert responses[code]["content"]["application/json"]["schema"] == error
+    assert set(schema["components"]["schemas"]["Error"]["required"]) == {"error", "detail"}
+
+
+def test_the_schema_types_the_telemetry_body_and_the_csv_export(
+    session_operator: APIClient,
+) -> None:
+    schema = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
+    components = schema["components"]["schemas"]
+    body = schema["paths"]["/api/v1/boat/telemetry/"]["post"]["requestBody"]
+    batch = body["content"]["application/json"]["schema"]["$ref"].rsplit("/", 1)[1]
+    fix = components[batch]["properties"]["fixes"]["items"]["$ref"].rsplit("/", 1)[1]
+    assert {"time", "lat", "lon", "readings"} <= set(components[fix]["properties"])
+    assert {"time", "lat", "lon"} <= set(components[fix]["required"])
+    fixes = schema["paths"]["/api/v1/vessels/{slug}/fixes/"]["get"]["responses"]["200"]
+    assert set(fixes["content"]) == {"application/json", "text/csv"}
