@@ -18,7 +18,7 @@ from telemetry.errors import BatchTooLarge
 from telemetry.models import Fix, SensorChannel
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.models import Vessel
-from vessels.services import vessel_record_fix
+from vessels.services import vessel_record_fix, vessel_record_fix_statement
 
 logger = logging.getLogger(__name__)
 
@@ -97,10 +97,12 @@ def _store(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) 
     return _store_once(vessel, fixes, now)
 
 
-@transaction.atomic
 def _store_once(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) -> list[Any]:
-    inserted = _insert_new(vessel.pk, list(fixes.values()), now)
-    _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
+    if connection.vendor == "postgresql" and 0 < len(fixes) <= INSERT_CHUNK:
+        return _store_postgres_in_one_statement(vessel, list(fixes.values()), now)
+    with transaction.atomic():
+        inserted = _insert_new(vessel.pk, list(fixes.values()), now)
+        _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
     return inserted
 
 
@@ -175,6 +177,15 @@ _PG_RECORD = "t timestamptz, lat float8, lon float8, h float8, s float8, b float
 
 
 def _insert_postgres(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> list[Any]:
+    sql, params = _insert_postgres_statement(vessel_id, now, fixes)
+    with connection.cursor() as cursor:
+        cursor.execute(sql, params)
+        return [r[0] for r in cursor.fetchall()]
+
+
+def _insert_postgres_statement(
+    vessel_id: int, now: dt.datetime, fixes: list[FixData]
+) -> tuple[str, list[Any]]:
     document = json.dumps([
         {"t": f.recorded_at.isoformat(), "lat": f.lat, "lon": f.lon, "h": f.heading_deg,
          "s": f.speed_mps, "b": f.battery_v, "r": f.readings}
@@ -186,9 +197,39 @@ def _insert_postgres(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> 
         + f"FROM jsonb_to_recordset(%s::jsonb) AS u({_PG_RECORD})"
         + _insert_tail()
     )
+    return sql, [vessel_id, now, document]
+
+
+def _store_postgres_in_one_statement(
+    vessel: Vessel, fixes: list[FixData], now: dt.datetime
+) -> list[dt.datetime]:
+    """Insert the fixes and advance the vessel in ONE statement, outside any transaction.
+
+    A single statement is its own transaction on PostgreSQL, so this costs one round trip
+    where BEGIN, INSERT, UPDATE and COMMIT cost four (a legacy client posts one fix per
+    request; the round trips were most of it). The vessel takes the batch's newest fix
+    only if that one was new (the `newest` CTE reads the insert's RETURNING rows); an older
+    new fix of the same batch could not be newer than the vessel's last fix anyway.
+    """
+    newest = max(fixes, key=lambda f: f.recorded_at)
+    insert_sql, insert_params = _insert_postgres_statement(vessel.pk, now, fixes)
+    update_sql, update_params = vessel_record_fix_statement(
+        vessel_id=vessel.pk,
+        seen_at=now,
+        fix_at=newest.recorded_at,
+        summary=fix_summary(newest),
+        also_if="EXISTS (SELECT 1 FROM newest)",
+    )
+    sql = (
+        f"WITH inserted AS ({insert_sql}), "
+        "newest AS (SELECT 1 FROM inserted WHERE recorded_at = %s), "
+        f"vessel AS ({update_sql}) "
+        "SELECT recorded_at FROM inserted"
+    )
+    by_time = {_key(f.recorded_at): f.recorded_at for f in fixes}
     with connection.cursor() as cursor:
-        cursor.execute(sql, [vessel_id, now, document])
-        return [r[0] for r in cursor.fetchall()]
+        cursor.execute(sql, [*insert_params, newest.recorded_at, *update_params])
+        return [by_time[_key(row[0])] for row in cursor.fetchall()]
 
 
 def _key(value: Any) -> dt.datetime:

@@ -68,12 +68,14 @@ def vessel_key_touch(*, key: VesselKey, now: dt.datetime) -> None:
 
 
 @functools.cache
-def _record_fix_sql(vendor: str) -> str:
+def _record_fix_sql(vendor: str, also_if: str = "") -> str:
     meta, qn = Vessel._meta, connection.ops.quote_name
     seen, fix, fix_at = (
         qn(meta.get_field(n).column) for n in ("last_seen_at", "last_fix", "last_fix_at")
     )
     newer = f"({fix_at} IS NULL OR {fix_at} < %s)"
+    if also_if:
+        newer = f"({newer} AND {also_if})"
     return (
         f"UPDATE {qn(meta.db_table)} SET {seen} = %s, "
         f"{fix} = CASE WHEN {newer} THEN %s ELSE {fix} END, "
@@ -98,19 +100,30 @@ def vessel_record_fix(
     if fix_at is None:
         Vessel.objects.filter(pk=vessel_id).update(last_seen_at=seen_at)
         return
+    sql, params = vessel_record_fix_statement(
+        vessel_id=vessel_id, seen_at=seen_at, fix_at=fix_at, summary=summary
+    )
+    with connection.cursor() as cursor:
+        cursor.execute(sql, params)
+
+
+def vessel_record_fix_statement(
+    *,
+    vessel_id: int,
+    seen_at: dt.datetime,
+    fix_at: dt.datetime,
+    summary: dict[str, Any],
+    also_if: str = "",
+) -> tuple[str, list[Any]]:
+    """:func:`vessel_record_fix` as (sql, params), for a caller that runs it as part of one
+    statement of its own (ingest on PostgreSQL: fixes and vessel in one round trip).
+    ``also_if``, a parameterless SQL condition, must hold too for the fix to be taken."""
     meta = Vessel._meta
     prep_time = meta.get_field("last_fix_at").get_db_prep_save
     at = prep_time(fix_at, connection)
-    params = [
-        prep_time(seen_at, connection),
-        at,
-        meta.get_field("last_fix").get_db_prep_save(summary, connection),
-        at,
-        at,
-        vessel_id,
-    ]
-    with connection.cursor() as cursor:
-        cursor.execute(_record_fix_sql(connection.vendor), params)
+    summary_value = meta.get_field("last_fix").get_db_prep_save(summary, connection)
+    params = [prep_time(seen_at, connection), at, summary_value, at, at, vessel_id]
+    return _record_fix_sql(connection.vendor, also_if), params
 
 
 def vessel_bump_commands_version(*, vessel_id: int) -> None:

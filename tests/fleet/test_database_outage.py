@@ -58,15 +58,15 @@ def drop_own_connection() -> None:
 def test_an_ingest_that_loses_its_connection_before_commit_is_retried_once(
     vessel_a: Vessel, key_a: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    real_insert, calls = services._insert_new, []
+    real_store, calls = services._store_once, []
 
-    def insert_dropping_the_first_time(*args: Any) -> Any:
+    def store_dropping_the_first_time(*args: Any) -> Any:
         calls.append(args)
         if len(calls) == 1:
             drop_own_connection()
-        return real_insert(*args)
+        return real_store(*args)
 
-    monkeypatch.setattr(services, "_insert_new", insert_dropping_the_first_time)
+    monkeypatch.setattr(services, "_store_once", store_dropping_the_first_time)
     fix = {"time": "2026-11-23T10:00:00Z", "lat": -31.95, "lon": 115.86}
     response = boat_client(key_a).post(TELEMETRY, {"fixes": [fix]}, format="json")
     assert response.status_code == 200, response.content

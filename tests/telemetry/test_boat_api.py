@@ -7,6 +7,8 @@ import json
 from typing import Any
 
 import pytest
+from django.db import connection
+from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 from rest_framework.test import APIClient
 
@@ -257,3 +259,20 @@ def test_a_non_standard_number_costs_only_its_own_fix(
     assert answer["accepted"] == 1
     assert [(r["index"], list(r["errors"])) for r in answer["rejected"]] == [(1, [field])]
     assert Fix.objects.filter(vessel=vessel_a).count() == 1
+
+
+def test_a_single_fix_post_is_two_statements_on_postgresql(
+    boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix
+) -> None:
+    """Key lookup, then the fix and the vessel's last fix in one statement (no BEGIN/COMMIT):
+    a legacy client posts one fix per request, so round trips are its cost."""
+    if connection.vendor != "postgresql":
+        pytest.skip("SQLite has no round trips; it keeps one transaction per batch")
+    boat_a.post(TELEMETRY, [make_fix(time="2026-11-23T09:00:00Z")], format="json")  # key touch
+    with CaptureQueriesContext(connection) as queries:
+        response = boat_a.post(TELEMETRY, [make_fix()], format="json")
+    assert response.json()["accepted"] == 1
+    assert len(queries) == 2, [q["sql"][:80] for q in queries]
+    vessel_a.refresh_from_db()
+    assert vessel_a.last_fix_at == dt.datetime(2026, 11, 23, 10, tzinfo=dt.UTC)
+    assert vessel_a.last_fix["battery_v"] == 12.6
