@@ -9,7 +9,7 @@ import pytest
 from rest_framework.test import APIClient
 
 from telemetry.models import Fix
-from tests.support import DATA, LEGACY_COMMANDS, LISTING_1, post_data, telem_ack
+from tests.support import BROWSER_HEADERS, DATA, LEGACY_COMMANDS, LISTING_1, post_data, telem_ack
 from vessels.models import Vessel
 
 
@@ -102,14 +102,7 @@ def test_legacy_responses_carry_no_browser_headers(boat_a: APIClient) -> None:
         boat_a.get(LEGACY_COMMANDS),
         post_data(APIClient(), []),
     ):
-        for header in (
-            "X-Frame-Options",
-            "Referrer-Policy",
-            "Vary",
-            "Allow",
-            "X-Content-Type-Options",
-            "Cross-Origin-Opener-Policy",
-        ):
+        for header in BROWSER_HEADERS:
             assert header not in response.headers
 
 
