@@ -24,28 +24,13 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
 
+from edge_client.catalog import INITIALISING, ROVER_MODES
 from edge_client.config import ReadingSource
 
 log = logging.getLogger(__name__)
 
-# ArduPilot Rover flight modes (ArduPilot Rover/mode.h, enum Mode::Number).
-ROVER_MODES: dict[str, int] = {
-    "MANUAL": 0,
-    "ACRO": 1,
-    "STEERING": 3,
-    "HOLD": 4,
-    "LOITER": 5,
-    "FOLLOW": 6,
-    "SIMPLE": 7,
-    "DOCK": 8,
-    "CIRCLE": 9,
-    "AUTO": 10,
-    "RTL": 11,
-    "SMART_RTL": 12,
-    "GUIDED": 15,
-    "INITIALISING": 16,
-}
-MODE_NAMES = {v: k for k, v in ROVER_MODES.items()}
+# HEARTBEAT custom_mode → name: the modes of the catalog plus the one seen while booting.
+MODE_NAMES = {number: name for name, number in ROVER_MODES.items()} | {INITIALISING: "INITIALISING"}
 
 MAV_MODE_FLAG_SAFETY_ARMED = 128
 MAV_AUTOPILOT_INVALID = 8  # HEARTBEATs from GCSs and companions carry this; ignore them
