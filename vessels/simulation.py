@@ -7,37 +7,13 @@ what each command does to it.
 from __future__ import annotations
 
 import datetime as dt
-import math
 import random
 from dataclasses import dataclass, field
 from typing import Any
 
-EARTH_RADIUS_M = 6_371_000.0
+from telemetry.geo import bearing_deg, distance_m, offset
+
 ARRIVED_M = 10.0
-
-
-def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    """Great-circle distance (haversine)."""
-    p1, p2 = math.radians(lat1), math.radians(lat2)
-    dp, dl = p2 - p1, math.radians(lon2 - lon1)
-    a = math.sin(dp / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
-    return 2 * EARTH_RADIUS_M * math.asin(math.sqrt(a))
-
-
-def bearing_deg(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    p1, p2, dl = math.radians(lat1), math.radians(lat2), math.radians(lon2 - lon1)
-    y = math.sin(dl) * math.cos(p2)
-    x = math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) * math.cos(dl)
-    return math.degrees(math.atan2(y, x)) % 360
-
-
-def offset(lat: float, lon: float, bearing: float, metres: float) -> tuple[float, float]:
-    """The point ``metres`` from (lat, lon) along ``bearing`` (flat-earth; fine below ~10 km)."""
-    north = metres * math.cos(math.radians(bearing))
-    east = metres * math.sin(math.radians(bearing))
-    dlat = math.degrees(north / EARTH_RADIUS_M)
-    dlon = math.degrees(east / (EARTH_RADIUS_M * math.cos(math.radians(lat))))
-    return lat + dlat, lon + dlon
 
 
 def patrol_route(

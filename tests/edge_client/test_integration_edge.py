@@ -16,9 +16,9 @@ import pytest
 from commands.models import Command
 from commands.services import command_enqueue
 from edge_client.config import MavlinkConfig
+from edge_client.geo import distance_m
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.mission import build_mission
-from edge_client.vehicle import distance_m
 from telemetry.models import Fix
 from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import (
