@@ -56,7 +56,7 @@ class Rig:
 
     def sim(self, *extra: str) -> None:
         self.procs.append(start(
-            ["-m", "tests.sim", "--listen", f"udpin:127.0.0.1:{self.sim_port}",
+            ["-m", "edge_client.sim", "--listen", f"udpin:127.0.0.1:{self.sim_port}",
              "--listen", f"udpin:127.0.0.1:{self.observer_port}", "--lat", str(HOME[0]),
              "--lon", str(HOME[1]), "--speed", "50", "--rate", "10", "--prearm-delay", "1",
              *extra],

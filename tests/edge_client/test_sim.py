@@ -100,6 +100,6 @@ def test_refused_modes_are_denied(gcs):
 
 
 def test_the_command_line_help_runs():
-    result = subprocess.run([sys.executable, "-m", "tests.sim", "--help"], cwd=ROOT,
+    result = subprocess.run([sys.executable, "-m", "edge_client.sim", "--help"], cwd=ROOT,
                             capture_output=True, text=True, timeout=60)  # fmt: skip
     assert result.returncode == 0 and "--reject-mission" in result.stdout
