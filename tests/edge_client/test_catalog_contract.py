@@ -12,6 +12,7 @@ import pytest
 from commands import catalog
 from edge_client import catalog as edge
 from edge_client.executor import CommandError, validate
+from edge_client.sim.rover import MODES as SIM_MODES
 from edge_client.vehicle import MODE_NAMES
 
 MAVLINK_KINDS = catalog.kinds_for(catalog.MAVLINK)
@@ -55,6 +56,10 @@ def test_rover_modes_are_the_catalogs_by_name_and_number() -> None:
         edge.INITIALISING: "INITIALISING"
     }
     assert "INITIALISING" not in catalog.ROVER_MODES
+
+
+def test_the_simulated_rover_knows_every_catalog_mode_by_the_same_number() -> None:
+    assert SIM_MODES == catalog.ROVER_MODES | {"INITIALISING": edge.INITIALISING}
 
 
 @pytest.mark.parametrize("name", sorted(edge.RANGES))

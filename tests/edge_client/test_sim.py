@@ -99,6 +99,25 @@ def test_refused_modes_are_denied(gcs):
     assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED and sim.mode_name == "GUIDED"
 
 
+@pytest.mark.parametrize(("mode", "number"), [("DOCK", 8), ("CIRCLE", 9)])
+def test_every_rover_mode_can_be_entered(gcs, mode, number):
+    sim, conn, expect = gcs()
+    conn.mav.command_long_send(1, 1, m.MAV_CMD_DO_SET_MODE, 0, 1, number, 0, 0, 0, 0, 0)
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED and sim.mode_name == mode
+
+
+def test_the_simulator_needs_only_pymavlink_and_the_standard_library():
+    code = (
+        "import sys, edge_client.sim, edge_client.sim.__main__;"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'django', 'requests', 'serial',"
+        " 'commands', 'vessels', 'telemetry', 'fleet', 'sms', 'tests'}))"
+    )
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                            text=True, timeout=60)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "[]"
+
+
 def test_the_command_line_help_runs():
     result = subprocess.run([sys.executable, "-m", "edge_client.sim", "--help"], cwd=ROOT,
                             capture_output=True, text=True, timeout=60)  # fmt: skip
