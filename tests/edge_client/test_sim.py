@@ -12,7 +12,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
-from tests.edge_client.helpers import ROOT  # noqa: E402
+from tests.edge_client.helpers import ROOT, wait_until  # noqa: E402
 
 m = mavutil.mavlink
 
@@ -85,7 +85,8 @@ def test_prearm_checks_pass_only_after_the_delay(gcs):
     conn.mav.command_long_send(1, 1, m.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     assert "PreArm" in expect("STATUSTEXT").text  # the reason comes first, as from ArduPilot
     assert expect("COMMAND_ACK").result == m.MAV_RESULT_FAILED
-    time.sleep(1.6)
+    # Wait on the simulator's own clock, not a sleep racing its deadline.
+    wait_until(lambda: time.monotonic() - sim.boot >= sim.prearm_delay_s, 10, "pre-arm delay")
     conn.mav.command_long_send(1, 1, m.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
     assert sim.armed
