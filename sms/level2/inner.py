@@ -348,7 +348,7 @@ def _with_catalog_rules(spec: CommandSpec, fail: Any) -> CommandSpec:
 
 def _ruled(p: ParamSpec, rule: catalog.Param, fail: Any) -> ParamSpec:
     if _PARAM_TYPES[p.type] != rule.kind:
-        raise fail(f"{p.name} is a {rule.kind} in the catalog; the table says {p.type}")
+        raise fail(f"{p.name} is {rule.kind!r} in the catalog but {p.type!r} in the table")
     if p.choices and set(p.choices) != {c.lower() for c in rule.choices}:
         raise fail(f"{p.name} choices must be the catalog's: {'/'.join(rule.choices)}")
     if p.type in ("lat", "lon") and (rule.maximum is None or rule.minimum != -rule.maximum):

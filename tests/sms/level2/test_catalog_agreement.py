@@ -109,7 +109,7 @@ def _with(word: str, **changes: object) -> dict:
         ),  # fmt: skip
         (
             _with("fhead", params=[{"name": "bearing", "type": "lat"}], fields=[]),
-            "bearing is a int in the catalog; the table says lat",
+            "bearing is 'int' in the catalog but 'lat' in the table",
         ),
         (
             _with(
