@@ -46,6 +46,7 @@ def test_it_runs_a_boat_that_reports_and_carries_out_a_command_then_stops_cleanl
     )  # fmt: skip
     try:
         wait_until(lambda: Command.objects.get(pk=command.pk).status == "done", 60, "move_to done")
+        wait_until(lambda: Fix.objects.filter(vessel=vessel_a).count() >= 10, 30, "10 fixes")
         pids = [int(p) for p in re.findall(r"pid (\d+)", log.read_text())]
         assert len(pids) == 2 and all(alive(p) for p in pids), log.read_text()
     finally:
