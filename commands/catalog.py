@@ -151,14 +151,14 @@ RADIUS_M = Param(
     required=False,
     default=None,
 )
-_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M)
+MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M)
 
 
 def _clean_mission_item(index: int, item: Any) -> dict[str, Any]:
     if not isinstance(item, Mapping):
         raise CatalogError(f"items[{index}] must be an object with lat and lon", field="items")
     try:
-        return _clean_params(_ITEM_PARAMS, item)
+        return _clean_params(MISSION_ITEM_PARAMS, item)
     except CatalogError as exc:
         raise CatalogError(f"items[{index}]: {exc.message}", field="items") from None
 

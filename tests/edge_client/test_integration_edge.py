@@ -16,9 +16,9 @@ import pytest
 from commands.models import Command
 from commands.services import command_enqueue
 from edge_client.config import MavlinkConfig
+from edge_client.geo import distance_m
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.mission import build_mission
-from edge_client.vehicle import distance_m
 from telemetry.models import Fix
 from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import (
@@ -56,7 +56,7 @@ class Rig:
 
     def sim(self, *extra: str) -> None:
         self.procs.append(start(
-            ["-m", "tests.sim", "--listen", f"udpin:127.0.0.1:{self.sim_port}",
+            ["-m", "edge_client.sim", "--listen", f"udpin:127.0.0.1:{self.sim_port}",
              "--listen", f"udpin:127.0.0.1:{self.observer_port}", "--lat", str(HOME[0]),
              "--lon", str(HOME[1]), "--speed", "50", "--rate", "10", "--prearm-delay", "1",
              *extra],
