@@ -1,12 +1,16 @@
-"""manage.py simulate_boat: the Rover simulator and the real edge client against a live server."""
+"""The demo: `manage.py seed_demo` (a usable fleet with history) and `manage.py simulate_boat`
+(the Rover simulator and the real edge client against a live server)."""
 
 from __future__ import annotations
 
+import io
+import json
 import os
 import re
 from pathlib import Path
 
 import pytest
+from django.contrib.auth.models import User
 from django.core.management import CommandError, call_command
 
 from commands.models import Command
@@ -15,9 +19,8 @@ from edge_client.geo import distance_m
 from telemetry.models import Fix
 from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import start, stop, wait_until
-from vessels.models import Vessel
-
-pytestmark = [pytest.mark.django_db(transaction=True), pytest.mark.slow]
+from vessels.keys import hash_key
+from vessels.models import Vessel, VesselKey
 
 START = (-31.9790, 115.8170)
 TARGET = (-31.9795, 115.8175)  # ~70 m south-east
@@ -31,6 +34,8 @@ def alive(pid: int) -> bool:
     return True
 
 
+@pytest.mark.slow
+@pytest.mark.django_db(transaction=True)
 def test_it_runs_a_boat_that_reports_and_carries_out_a_command_then_stops_cleanly(
     live_server, vessel_a: Vessel, key_a: str, tmp_path: Path
 ) -> None:
@@ -64,3 +69,30 @@ def test_it_runs_a_boat_that_reports_and_carries_out_a_command_then_stops_cleanl
 def test_it_refuses_to_start_without_a_key(tmp_path: Path) -> None:
     with pytest.raises(CommandError, match="give --key or --key-file"):
         call_command("simulate_boat", "--outbox", str(tmp_path / "o.sqlite3"))
+
+
+@pytest.mark.django_db
+def test_seed_demo_makes_a_usable_fleet(tmp_path: Path) -> None:
+    keys_file = tmp_path / "keys.json"
+    out, _ = run_command("seed_demo", "--password", "demo-pw-1", "--keys-file", str(keys_file))
+    assert "user: operator" in out and "demo-pw-1" in out
+    user = User.objects.get(username="operator")
+    assert user.check_password("demo-pw-1") and user.is_staff
+    assert user.has_perm("commands.add_command") and not user.is_superuser
+    keys = json.loads(keys_file.read_text())
+    assert set(keys) == {"spab", "spab-2", "glider"}
+    assert oct(keys_file.stat().st_mode & 0o777) == "0o600"
+    for slug, raw in keys.items():
+        assert VesselKey.objects.get(key_hash=hash_key(raw)).vessel.slug == slug
+        vessel = Vessel.objects.get(slug=slug)
+        assert vessel.last_fix is not None and Fix.objects.filter(vessel=vessel).count() > 30
+    assert Command.objects.filter(status="done").exists()
+    # Running it again keeps the fleet and its history and issues fresh keys.
+    run_command("seed_demo", "--password", "demo-pw-2", "--keys-file", str(keys_file))
+    assert Vessel.objects.count() == 3
+
+
+def run_command(*args: str) -> tuple[str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    call_command(*args, stdout=out, stderr=err)
+    return out.getvalue(), err.getvalue()
