@@ -106,6 +106,13 @@ DEBUG = env_bool("DEBUG", False)
 # ALLOWED_HOSTS defaults to this machine only, so a forgotten variable fails closed (and
 # fleet.W002 warns when non-local hosts are served without it).
 PRODUCTION = env_bool("PRODUCTION", False)
+if PRODUCTION and DEBUG:
+    # fleet.E003 is only a system check, and gunicorn runs no checks: it would serve Django's
+    # debug pages (settings, SQL, tracebacks) to the internet. Refuse to start instead.
+    raise ImproperlyConfigured(
+        "DEBUG=1 and PRODUCTION=1 together would show Django's debug pages to anyone: "
+        "set DEBUG=0 on a production server."
+    )
 
 
 def write_private(path: Path, text: str) -> None:

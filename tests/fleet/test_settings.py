@@ -280,3 +280,13 @@ def test_legacy_endpoints_stay_on_plain_http_under_the_https_redirect(client, se
     settings.SECURE_SSL_REDIRECT = True
     assert client.get("/admin/login/").status_code == 301
     assert client.get("/spab/requestCommands.cgi").status_code == 401  # answered, not redirected
+
+
+def test_production_with_debug_refuses_to_start(tmp_path: Path) -> None:
+    # fleet.E003 alone is not enough: gunicorn runs no system checks.
+    result = _import_settings(
+        tmp_path, PRODUCTION="1", DEBUG="1", SECRET_KEY=LONG_KEY, ALLOWED_HOSTS="shore.example"
+    )
+    assert result.returncode != 0
+    assert "ImproperlyConfigured" in result.stderr
+    assert "DEBUG=1 and PRODUCTION=1 together" in result.stderr
