@@ -100,6 +100,9 @@ def _sqlite(path: Path) -> dict[str, object]:
 
 # Local data (SQLite file, generated secret key) lives outside the source tree.
 DATA_DIR = Path(os.environ.get("SHORESIDE_DATA_DIR", BASE_DIR.parent / "shoreside-data")).resolve()
+# Only the service's user may enter it: it holds the database and the generated secret key.
+# (The mode applies when the folder is created; an existing folder is left as it is.)
+DATA_DIR.mkdir(mode=0o700, parents=True, exist_ok=True)
 
 DEBUG = env_bool("DEBUG", False)
 # PRODUCTION=1 turns on HTTPS-only cookies and redirects and requires SECRET_KEY. Without it
@@ -204,6 +207,24 @@ else:
     DATABASES = {"default": _sqlite(DATA_DIR / "shoreside.sqlite3")}
 
 DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
+
+
+def _create_private(path: Path) -> None:
+    """Create an empty file only its owner can read; an existing file is left alone."""
+    try:
+        os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+    except (FileExistsError, FileNotFoundError):  # no folder: SQLite will say so on connect
+        pass
+
+
+# SQLite creates a missing database file with the umask's mode (world-readable under 022) and
+# gives its -wal and -shm files the database file's mode: create it private first (an empty
+# file is an empty database).
+for _db in DATABASES.values():
+    if _db["ENGINE"] == "django.db.backends.sqlite3" and not str(_db["NAME"]).startswith(
+        (":", "file:")
+    ):
+        _create_private(Path(_db["NAME"]))
 
 AUTH_PASSWORD_VALIDATORS = [
     {"NAME": "django.contrib.auth.password_validation.UserAttributeSimilarityValidator"},

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -290,3 +291,39 @@ def test_production_with_debug_refuses_to_start(tmp_path: Path) -> None:
     assert result.returncode != 0
     assert "ImproperlyConfigured" in result.stderr
     assert "DEBUG=1 and PRODUCTION=1 together" in result.stderr
+
+
+def test_the_sqlite_database_and_data_folder_are_private(tmp_path: Path) -> None:
+    # A fresh data dir, migrated under the usual umask 022, then a connection held open so
+    # SQLite's -wal and -shm files exist while their modes are read.
+    data = tmp_path / "data"
+    env = {k: v for k, v in os.environ.items() if k not in {"DATABASE_URL", "SECRET_KEY"}}
+    env.update(SHORESIDE_DATA_DIR=str(data), PRODUCTION="0", DEBUG="0")
+    umask = {"preexec_fn": lambda: os.umask(0o022)}
+    migrate = subprocess.run(
+        [sys.executable, "manage.py", "migrate", "--verbosity", "0"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=120, **umask,
+    )  # fmt: skip
+    assert migrate.returncode == 0, migrate.stderr
+    show_modes = (
+        "from django.db import connection; import os, stat\n"
+        "connection.cursor().execute('SELECT count(*) FROM django_migrations')\n"
+        "for name in sorted(os.listdir(os.environ['SHORESIDE_DATA_DIR'])):\n"
+        "    path = os.path.join(os.environ['SHORESIDE_DATA_DIR'], name)\n"
+        "    if os.path.isfile(path):\n"
+        "        print('mode', name, oct(stat.S_IMODE(os.stat(path).st_mode)))\n"
+    )
+    held = subprocess.run(
+        [sys.executable, "manage.py", "shell", "-c", show_modes],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=120, **umask,
+    )  # fmt: skip
+    assert held.returncode == 0, held.stderr
+    modes = dict(line.split()[1:] for line in held.stdout.splitlines() if line.startswith("mode "))
+    assert set(modes) >= {
+        "secret_key",
+        "shoreside.sqlite3",
+        "shoreside.sqlite3-wal",
+        "shoreside.sqlite3-shm",
+    }
+    assert set(modes.values()) == {"0o600"}, modes
+    assert oct(stat.S_IMODE(data.stat().st_mode)) == "0o700"
