@@ -7,7 +7,7 @@ from django.apps import AppConfig
 # Apps whose admin.py registers models (see the SimpleAdminConfig note in settings).
 ADMIN_APPS = (
     "django.contrib.auth",  # users and groups (operators)
-    "rest_framework.authtoken",  # operators' personal API tokens
+    "operators",  # operators' personal API tokens
     "vessels",
     "telemetry",
     "commands",

@@ -159,10 +159,11 @@ INSTALLED_APPS = [
     "django.contrib.messages",
     "django.contrib.staticfiles",
     "rest_framework",
-    "rest_framework.authtoken",
+    "knox",  # its token model is swapped for operators.OperatorToken
     "drf_spectacular",
     "drf_spectacular_sidecar",
     "leaflet",
+    "operators",
     "vessels",
     "telemetry",
     "commands",
@@ -265,7 +266,7 @@ if env_bool("BEHIND_TLS_PROXY", False):
 REST_FRAMEWORK = {
     "DEFAULT_AUTHENTICATION_CLASSES": [
         "rest_framework.authentication.SessionAuthentication",
-        "rest_framework.authentication.TokenAuthentication",
+        "operators.auth.OperatorTokenAuthentication",
     ],
     "DEFAULT_PERMISSION_CLASSES": ["fleet.permissions.ModelPermissions"],
     "DEFAULT_RENDERER_CLASSES": ["rest_framework.renderers.JSONRenderer"]
@@ -290,6 +291,11 @@ SPECTACULAR_SETTINGS = {
     "SWAGGER_UI_FAVICON_HREF": "SIDECAR",
     "REDOC_DIST": "SIDECAR",
 }
+
+# Operators' personal API tokens (operators app on django-rest-knox): only a SHA-512 digest
+# is stored; `sst_` makes a leaked token recognisable. Issued by the admin and `issue_token`.
+KNOX_TOKEN_MODEL = "operators.OperatorToken"
+REST_KNOX = {"TOKEN_MODEL": KNOX_TOKEN_MODEL, "TOKEN_PREFIX": "sst_", "AUTH_HEADER_PREFIX": "Token"}
 
 # Map tiles come from a configurable URL; with none reachable the map still shows tracks.
 MAP_TILES_URL = os.environ.get("MAP_TILES_URL", "https://tile.openstreetmap.org/{z}/{x}/{y}.png")

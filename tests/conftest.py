@@ -8,11 +8,11 @@ from typing import Any
 
 import pytest
 from django.contrib.auth.models import Permission, User
-from rest_framework.authtoken.models import Token
 from rest_framework.test import APIClient
 
 from commands.models import Command
 from commands.services import command_enqueue
+from operators.services import operator_token_issue
 from vessels.models import Vessel
 from vessels.services import vessel_create, vessel_key_issue, vessel_key_revoke
 
@@ -137,7 +137,8 @@ def session_operator(operator_user: User) -> APIClient:
 def token_operator(operator_user: User) -> APIClient:
     """Alice through her personal API token."""
     client = APIClient()
-    client.credentials(HTTP_AUTHORIZATION=f"Token {Token.objects.create(user=operator_user).key}")
+    _token, raw = operator_token_issue(user=operator_user, name="alice's script", expires_in=None)
+    client.credentials(HTTP_AUTHORIZATION=f"Token {raw}")
     return client
 
 

@@ -323,7 +323,7 @@ def test_an_operator_without_permission_cannot_queue(
 
 
 @pytest.mark.parametrize(
-    "url", ["/admin/auth/user/", "/admin/auth/group/", "/admin/authtoken/tokenproxy/"]
+    "url", ["/admin/auth/user/", "/admin/auth/group/", "/admin/operators/operatortoken/"]
 )
 def test_operators_and_their_api_tokens_are_managed_in_the_admin(
     admin_ui: Client, url: str
