@@ -7,6 +7,7 @@ Production safety is enforced by the system checks in fleet/checks.py.
 from __future__ import annotations
 
 import os
+import re
 import secrets
 from pathlib import Path
 from urllib.parse import parse_qsl, unquote, urlsplit
@@ -40,6 +41,17 @@ def env_int(name: str, default: int) -> int:
         return int(raw)
     except ValueError:
         raise ValueError(f"{name}={raw!r} is not an integer") from None
+
+
+def env_rate(name: str, default: str) -> str | None:
+    """A request rate in DRF's form (`600/min`: per s, min, hour or day), or `off` (None)."""
+    raw = os.environ.get(name)
+    value = default if raw is None or not raw.strip() else raw.strip().lower()
+    if value == "off":
+        return None
+    if not re.fullmatch(r"\d+/(s|sec|second|m|min|minute|h|hour|d|day)", value):
+        raise ValueError(f"{name}={raw!r} is not a rate (e.g. 600/min, 20/s, 5000/day, or off)")
+    return value
 
 
 def env_list(name: str, default: list[str]) -> list[str]:
@@ -279,6 +291,16 @@ REST_FRAMEWORK = {
     # `?format=csv` is the exports' own parameter, not DRF content negotiation.
     "URL_FORMAT_OVERRIDE": None,
     "UNAUTHENTICATED_USER": None,
+    # Per vessel (boats) and per user (operators), in the cache below (vessels/throttles.py).
+    "DEFAULT_THROTTLE_CLASSES": [
+        "vessels.throttles.BoatRateThrottle",
+        "vessels.throttles.OperatorRateThrottle",
+    ],
+    "DEFAULT_THROTTLE_RATES": {
+        # A boat posting every second and polling every 2 s makes ~100 requests a minute.
+        "boat": env_rate("THROTTLE_BOAT_RATE", "600/min"),
+        "operator": env_rate("THROTTLE_OPERATOR_RATE", "1200/min"),
+    },
 }
 
 SPECTACULAR_SETTINGS = {
@@ -314,6 +336,21 @@ FIX_MAX_FUTURE_S = env_int("FIX_MAX_FUTURE_S", 300)
 KEY_TOUCH_INTERVAL_S = env_int("KEY_TOUCH_INTERVAL_S", 60)
 COMMAND_DEFAULT_TTL_S = env_int("COMMAND_DEFAULT_TTL_S", 24 * 3600)
 DATA_UPLOAD_MAX_MEMORY_SIZE = env_int("DATA_UPLOAD_MAX_MEMORY_SIZE", 10 * 1024 * 1024)
+
+# The cache holds the API throttles' counters. `locmem` counts in each
+# process alone, so under N gunicorn workers a limit is up to N times looser; `file` (in the
+# data dir) is shared by the workers of one machine; `database` by several machines (run
+# `manage.py createcachetable` once; it writes on every API request: PostgreSQL, not SQLite).
+_CACHE_BACKENDS = {
+    "locmem": ("django.core.cache.backends.locmem.LocMemCache", "shoreside"),
+    "file": ("django.core.cache.backends.filebased.FileBasedCache", str(DATA_DIR / "cache")),
+    "database": ("django.core.cache.backends.db.DatabaseCache", "shoreside_cache"),
+}
+_cache = os.environ.get("CACHE_BACKEND", "").strip().lower() or "locmem"
+if _cache not in _CACHE_BACKENDS:
+    raise ValueError(f"CACHE_BACKEND={_cache!r} is not one of {', '.join(_CACHE_BACKENDS)}")
+_backend, _location = _CACHE_BACKENDS[_cache]
+CACHES = {"default": {"BACKEND": _backend, "LOCATION": _location}}
 
 LOGGING = {
     "version": 1,

@@ -8,6 +8,7 @@ from typing import Any
 
 import pytest
 from django.contrib.auth.models import Permission, User
+from django.core.cache import cache
 from rest_framework.test import APIClient
 
 from commands.models import Command
@@ -28,6 +29,12 @@ OPERATOR_PERMS = [
 @pytest.fixture(autouse=True)
 def _allowed_hosts(settings: Any) -> None:
     settings.ALLOWED_HOSTS = ["testserver", "localhost", "127.0.0.1"]
+
+
+@pytest.fixture(autouse=True)
+def _fresh_cache() -> None:
+    # Throttle and failed-login counts live in the cache; each test starts from zero.
+    cache.clear()
 
 
 @pytest.fixture(autouse=True)

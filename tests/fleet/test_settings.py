@@ -15,7 +15,7 @@ from django.core import checks as django_checks
 from django.core.management import call_command
 
 from fleet.checks import check_production_safety
-from fleet.settings import database_from_url, env_bool, env_int, env_list
+from fleet.settings import database_from_url, env_bool, env_int, env_list, env_rate
 
 ROOT = Path(__file__).resolve().parents[2]
 LONG_KEY = "k" * 50
@@ -327,3 +327,55 @@ def test_the_sqlite_database_and_data_folder_are_private(tmp_path: Path) -> None
     }
     assert set(modes.values()) == {"0o600"}, modes
     assert oct(stat.S_IMODE(data.stat().st_mode)) == "0o700"
+
+
+@pytest.mark.parametrize(
+    ("raw", "rate"),
+    [("600/min", "600/min"), (" 20/S ", "20/s"), ("5000/day", "5000/day"), ("off", None)],
+)
+def test_env_rate_reads_rates(monkeypatch: pytest.MonkeyPatch, raw: str, rate: str | None) -> None:
+    monkeypatch.setenv("X_RATE", raw)
+    assert env_rate("X_RATE", "1/s") == rate
+
+
+@pytest.mark.parametrize("raw", ["600", "600/minutes", "10/fortnight", "-1/s", "1.5/s", "none"])
+def test_env_rate_refuses_anything_else(monkeypatch: pytest.MonkeyPatch, raw: str) -> None:
+    monkeypatch.setenv("X_RATE", raw)
+    with pytest.raises(ValueError, match=r"X_RATE=.* is not a rate"):
+        env_rate("X_RATE", "1/s")
+
+
+def _settings_value(tmp_path: Path, expr: str, **env: str) -> subprocess.CompletedProcess[str]:
+    clean = {k: v for k, v in os.environ.items() if k not in {"CACHE_BACKEND", "PRODUCTION"}}
+    clean.update(SHORESIDE_DATA_DIR=str(tmp_path / "data"), **env)
+    return subprocess.run(
+        [sys.executable, "-c", f"import fleet.settings as s; print({expr})"],
+        cwd=ROOT, env=clean, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("backend", "expected"),
+    [("", "LocMemCache"), ("file", "FileBasedCache"), ("database", "DatabaseCache")],
+)
+def test_the_cache_backend_comes_from_the_environment(
+    tmp_path: Path, backend: str, expected: str
+) -> None:
+    result = _settings_value(tmp_path, "s.CACHES['default']['BACKEND']", CACHE_BACKEND=backend)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip().endswith(expected)
+
+
+def test_an_unknown_cache_backend_stops_the_settings_import(tmp_path: Path) -> None:
+    result = _settings_value(tmp_path, "s.CACHES", CACHE_BACKEND="redis")
+    assert result.returncode != 0
+    assert "CACHE_BACKEND='redis' is not one of locmem, file, database" in result.stderr
+
+
+def test_throttle_rates_come_from_the_environment(tmp_path: Path) -> None:
+    rates = "s.REST_FRAMEWORK['DEFAULT_THROTTLE_RATES']"
+    result = _settings_value(
+        tmp_path, rates, THROTTLE_BOAT_RATE="5/s", THROTTLE_OPERATOR_RATE="off"
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "{'boat': '5/s', 'operator': None}"
