@@ -23,3 +23,9 @@ class FleetConfig(AppConfig):
 
         for app in ADMIN_APPS:
             import_module(f"{app}.admin")
+
+        from django.contrib import admin
+
+        from operators.login import AdminLoginForm
+
+        admin.site.login_form = AdminLoginForm  # limits failed logins (operators/login.py)

@@ -337,7 +337,7 @@ KEY_TOUCH_INTERVAL_S = env_int("KEY_TOUCH_INTERVAL_S", 60)
 COMMAND_DEFAULT_TTL_S = env_int("COMMAND_DEFAULT_TTL_S", 24 * 3600)
 DATA_UPLOAD_MAX_MEMORY_SIZE = env_int("DATA_UPLOAD_MAX_MEMORY_SIZE", 10 * 1024 * 1024)
 
-# The cache holds the API throttles' counters. `locmem` counts in each
+# The cache holds the API throttles' and the failed logins' counters. `locmem` counts in each
 # process alone, so under N gunicorn workers a limit is up to N times looser; `file` (in the
 # data dir) is shared by the workers of one machine; `database` by several machines (run
 # `manage.py createcachetable` once; it writes on every API request: PostgreSQL, not SQLite).
@@ -351,6 +351,10 @@ if _cache not in _CACHE_BACKENDS:
     raise ValueError(f"CACHE_BACKEND={_cache!r} is not one of {', '.join(_CACHE_BACKENDS)}")
 _backend, _location = _CACHE_BACKENDS[_cache]
 CACHES = {"default": {"BACKEND": _backend, "LOCATION": _location}}
+# Failed admin logins per user name and client address before that pair is refused for
+# LOGIN_LOCKOUT_S seconds (operators/login.py).
+LOGIN_FAILURE_LIMIT = env_int("LOGIN_FAILURE_LIMIT", 5)
+LOGIN_LOCKOUT_S = env_int("LOGIN_LOCKOUT_S", 15 * 60)
 
 LOGGING = {
     "version": 1,
