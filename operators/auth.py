@@ -6,6 +6,7 @@ from typing import Any
 
 from drf_spectacular.extensions import OpenApiAuthenticationExtension
 from knox.auth import TokenAuthentication
+from rest_framework.exceptions import AuthenticationFailed
 
 from operators.models import OperatorToken
 
@@ -19,6 +20,13 @@ class OperatorTokenAuthentication(TokenAuthentication):
     tokens, to delete the expired ones); here an expired token is simply refused, and stays
     listed as expired in the admin until its owner revokes it.
     """
+
+    def authenticate_credentials(self, token: bytes) -> tuple[Any, OperatorToken]:
+        try:
+            token.decode("utf-8")
+        except UnicodeDecodeError:  # knox would let this through as a 500
+            raise AuthenticationFailed("Invalid token.") from None
+        return super().authenticate_credentials(token)
 
     def _cleanup_token(self, auth_token: OperatorToken) -> bool:
         return auth_token.is_expired()

@@ -61,7 +61,10 @@ def test_the_lookup_is_one_indexed_query(operator_user: User) -> None:
     assert "token_key" in queries[0]["sql"]
 
 
-@pytest.mark.parametrize("header", ["Token sst_nonsense", "Token ", "Token a b"])
+@pytest.mark.parametrize(
+    "header",
+    ["Token sst_nonsense", "Token ", "Token a b", "Token sst_\xe9t\xe9", "Token " + "f" * 5000],
+)
 def test_a_wrong_token_is_refused(operator_user: User, vessel_a, header: str) -> None:
     operator_token_issue(user=operator_user, name="script", expires_in=None)
     client = APIClient()
