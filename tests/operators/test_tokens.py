@@ -170,3 +170,10 @@ def test_issue_token_refuses_bad_input_clearly(
         call_command("issue_token", *args, stdout=out, stderr=io.StringIO())
     assert out.getvalue() == ""
     assert not OperatorToken.objects.exists()
+
+
+def test_the_openapi_schema_describes_the_operator_token(session_operator: APIClient) -> None:
+    schema = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
+    scheme = schema["components"]["securitySchemes"]["operatorToken"]
+    assert (scheme["type"], scheme["name"]) == ("apiKey", "Authorization")
+    assert {"operatorToken": []} in schema["paths"]["/api/v1/vessels/"]["get"]["security"]
