@@ -177,3 +177,12 @@ def test_the_openapi_schema_describes_the_operator_token(session_operator: APICl
     scheme = schema["components"]["securitySchemes"]["operatorToken"]
     assert (scheme["type"], scheme["name"]) == ("apiKey", "Authorization")
     assert {"operatorToken": []} in schema["paths"]["/api/v1/vessels/"]["get"]["security"]
+
+
+@pytest.mark.django_db
+def test_knox_leaves_no_table_of_its_own() -> None:
+    # Its model is swapped for OperatorToken; an unused knox_authtoken table would still hold
+    # a foreign key to auth_user, and PostgreSQL refuses flush's TRUNCATE because of it.
+    tables = connection.introspection.table_names()
+    assert "operators_operatortoken" in tables
+    assert not [t for t in tables if t.startswith("knox_")]
