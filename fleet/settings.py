@@ -14,6 +14,8 @@ from urllib.parse import parse_qsl, unquote, urlsplit
 
 from django.core.exceptions import ImproperlyConfigured
 
+from fleet.files import write_private
+
 BASE_DIR = Path(__file__).resolve().parent.parent
 
 _TRUE = {"1", "true", "yes", "on"}
@@ -130,13 +132,6 @@ if PRODUCTION and DEBUG:
     )
 
 
-def write_private(path: Path, text: str) -> None:
-    """Write a file only its owner can read, from the first byte (no chmod-after window)."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(fd, "w") as handle:
-        handle.write(text)
-
-
 def _secret_key() -> str:
     key = os.environ.get("SECRET_KEY", "")
     if key:
@@ -161,9 +156,7 @@ ALLOWED_HOSTS = env_list(
 CSRF_TRUSTED_ORIGINS = env_list("CSRF_TRUSTED_ORIGINS", [])
 
 INSTALLED_APPS = [
-    # SimpleAdminConfig: no autodiscover, because django-leaflet's admin module imports
-    # GeoDjango (GDAL), which this project deliberately does without (DESIGN §3).
-    # fleet.apps registers the project's own admin modules instead.
+    # No autodiscover: see fleet.apps (django-leaflet's admin module needs GDAL).
     "django.contrib.admin.apps.SimpleAdminConfig",
     "django.contrib.auth",
     "django.contrib.contenttypes",
@@ -183,7 +176,8 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
-    "fleet.middleware.BoatApiSlimMiddleware",
+    "vessels.middleware.BoatApiSlimMiddleware",
+    "fleet.middleware.RejectNulMiddleware",
     "django.middleware.security.SecurityMiddleware",
     # Serves the vendored front-end assets (Leaflet, Swagger UI) itself: no CDN, no internet.
     "whitenoise.middleware.WhiteNoiseMiddleware",
@@ -280,10 +274,10 @@ REST_FRAMEWORK = {
         "rest_framework.authentication.SessionAuthentication",
         "operators.auth.OperatorTokenAuthentication",
     ],
-    "DEFAULT_PERMISSION_CLASSES": ["fleet.permissions.ModelPermissions"],
+    "DEFAULT_PERMISSION_CLASSES": ["vessels.permissions.ModelPermissions"],
     "DEFAULT_RENDERER_CLASSES": ["rest_framework.renderers.JSONRenderer"]
     + (["rest_framework.renderers.BrowsableAPIRenderer"] if DEBUG else []),
-    "DEFAULT_PARSER_CLASSES": ["fleet.api.JSONParser"],
+    "DEFAULT_PARSER_CLASSES": ["vessels.api.parsers.JSONParser"],
     "DEFAULT_PAGINATION_CLASS": "rest_framework.pagination.CursorPagination",
     "PAGE_SIZE": 500,
     "DEFAULT_SCHEMA_CLASS": "drf_spectacular.openapi.AutoSchema",
@@ -312,6 +306,10 @@ SPECTACULAR_SETTINGS = {
     "SWAGGER_UI_DIST": "SIDECAR",
     "SWAGGER_UI_FAVICON_HREF": "SIDECAR",
     "REDOC_DIST": "SIDECAR",
+    "POSTPROCESSING_HOOKS": [
+        "drf_spectacular.hooks.postprocess_schema_enums",
+        "fleet.schema.add_error_responses",
+    ],
 }
 
 # Operators' personal API tokens (operators app on django-rest-knox): only a SHA-512 digest

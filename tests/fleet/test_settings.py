@@ -269,7 +269,7 @@ def test_sqlite_urls_read_like_dj_database_url() -> None:
 
 
 def test_the_generated_secret_key_file_is_private_from_the_start(tmp_path) -> None:
-    from fleet.settings import write_private
+    from fleet.files import write_private
 
     path = tmp_path / "secret_key"
     write_private(path, "s3cret")

@@ -130,3 +130,12 @@ def test_a_simulated_boat_keeps_its_fixes_while_its_key_is_refused(
     sim.do_one_post()
     assert len(sim.backlog) == 0
     assert Fix.objects.filter(vessel=vessel_a).count() == 1
+
+
+@pytest.mark.django_db
+def test_an_overlong_label_is_a_clear_error_and_issues_nothing(vessel_a: Vessel) -> None:
+    out = io.StringIO()
+    with pytest.raises(CommandError, match="label"):
+        call_command("issue_key", "spab", "--label", "x" * 101, stdout=out, stderr=io.StringIO())
+    assert out.getvalue() == ""
+    assert not VesselKey.objects.exists()

@@ -16,7 +16,7 @@ from django.utils import timezone
 
 from commands.models import Source
 from commands.services import command_ack, command_claim_open, command_enqueue
-from fleet.settings import write_private
+from fleet.files import write_private
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from vessels.models import Mission, Vessel
