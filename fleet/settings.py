@@ -14,7 +14,7 @@ from urllib.parse import parse_qsl, unquote, urlsplit
 
 from django.core.exceptions import ImproperlyConfigured
 
-from fleet.files import write_private
+from fleet.files import create_private, write_private
 
 BASE_DIR = Path(__file__).resolve().parent.parent
 
@@ -215,15 +215,6 @@ else:
 
 DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
 
-
-def _create_private(path: Path) -> None:
-    """Create an empty file only its owner can read; an existing file is left alone."""
-    try:
-        os.close(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
-    except (FileExistsError, FileNotFoundError):  # no folder: SQLite will say so on connect
-        pass
-
-
 # SQLite creates a missing database file with the umask's mode (world-readable under 022) and
 # gives its -wal and -shm files the database file's mode: create it private first (an empty
 # file is an empty database).
@@ -231,7 +222,7 @@ for _db in DATABASES.values():
     if _db["ENGINE"] == "django.db.backends.sqlite3" and not str(_db["NAME"]).startswith(
         (":", "file:")
     ):
-        _create_private(Path(_db["NAME"]))
+        create_private(Path(_db["NAME"]))
 
 AUTH_PASSWORD_VALIDATORS = [
     {"NAME": "django.contrib.auth.password_validation.UserAttributeSimilarityValidator"},
