@@ -14,7 +14,8 @@ from django.contrib import admin, messages
 from django.db.models import QuerySet
 from django.http import HttpRequest, HttpResponse
 from django.template.response import TemplateResponse
-from django.utils import timezone
+from django.utils import formats, timezone
+from django.utils.timezone import localtime
 
 from operators.models import OperatorToken
 from operators.services import operator_token_issue, operator_token_revoke
@@ -45,7 +46,7 @@ class TokenAddForm(forms.ModelForm):
 @admin.register(OperatorToken)
 class OperatorTokenAdmin(admin.ModelAdmin):
     # Never the digest: name, the non-secret first characters, dates.
-    list_display = ["name", "user", "prefix", "created", "expiry", "state"]
+    list_display = ["name", "user", "prefix", "created", "expires", "state"]
     list_select_related = ["user"]
     search_fields = ["name", "token_key"]
     raw_id_fields = ["user"]
@@ -145,6 +146,10 @@ class OperatorTokenAdmin(admin.ModelAdmin):
     @admin.display(description="prefix", ordering="token_key")
     def prefix(self, token: OperatorToken) -> str:
         return f"{token.token_key}…"
+
+    @admin.display(description="expires", ordering="expiry")
+    def expires(self, token: OperatorToken) -> str:
+        return "never" if token.expiry is None else formats.localize(localtime(token.expiry))
 
     @admin.display(description="state")
     def state(self, token: OperatorToken) -> str:

@@ -70,6 +70,7 @@ def test_an_operator_needs_no_model_permission_for_their_own_tokens(
     )
     assert OperatorToken.objects.get().user == readonly_user
     assert OperatorToken.objects.get().expiry is None
+    assert "never" in client.get(CHANGELIST).content.decode()
 
 
 def test_an_operator_sees_only_their_own_tokens(
