@@ -8,7 +8,8 @@ from django.utils.module_loading import module_has_submodule
 # django-leaflet's admin module imports GeoDjango, which needs GDAL, which this project does
 # without (DESIGN §3); the maps need the app for its template tags and assets, so admin
 # autodiscovery (which would import it) is off (SimpleAdminConfig) and done here without it.
-NO_ADMIN_DISCOVERY = frozenset({"leaflet"})
+# knox's admin is for its own token model, swapped out for operators.OperatorToken.
+NO_ADMIN_DISCOVERY = frozenset({"leaflet", "knox"})
 
 
 class FleetConfig(AppConfig):
@@ -24,3 +25,9 @@ class FleetConfig(AppConfig):
                 config.module, "admin"
             ):
                 import_module(f"{config.name}.admin")
+
+        from django.contrib import admin
+
+        from operators.login import AdminLoginForm
+
+        admin.site.login_form = AdminLoginForm  # limits failed logins (operators/login.py)

@@ -9,12 +9,13 @@ from typing import Any
 
 import pytest
 from django.contrib.auth.models import Permission, User
+from django.core.cache import cache
 from django.test import Client
-from rest_framework.authtoken.models import Token
 from rest_framework.test import APIClient
 
 from commands.models import Command
 from commands.services import command_enqueue
+from operators.services import operator_token_issue
 from telemetry.services import fix_ingest
 from tests.support import BASE, iso
 from vessels.models import Vessel
@@ -32,6 +33,12 @@ OPERATOR_PERMS = [
 @pytest.fixture(autouse=True)
 def _allowed_hosts(settings: Any) -> None:
     settings.ALLOWED_HOSTS = ["testserver", "localhost", "127.0.0.1"]
+
+
+@pytest.fixture(autouse=True)
+def _fresh_cache() -> None:
+    # Throttle and failed-login counts live in the cache; each test starts from zero.
+    cache.clear()
 
 
 @pytest.fixture(autouse=True)
@@ -141,7 +148,8 @@ def session_operator(operator_user: User) -> APIClient:
 def token_operator(operator_user: User) -> APIClient:
     """Alice through her personal API token."""
     client = APIClient()
-    client.credentials(HTTP_AUTHORIZATION=f"Token {Token.objects.create(user=operator_user).key}")
+    _token, raw = operator_token_issue(user=operator_user, name="alice's script", expires_in=None)
+    client.credentials(HTTP_AUTHORIZATION=f"Token {raw}")
     return client
 
 

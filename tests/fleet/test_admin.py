@@ -70,7 +70,7 @@ def test_admin_pages_need_a_login(client: Client) -> None:
 
 
 @pytest.mark.parametrize(
-    "url", ["/admin/auth/user/", "/admin/auth/group/", "/admin/authtoken/tokenproxy/"]
+    "url", ["/admin/auth/user/", "/admin/auth/group/", "/admin/operators/operatortoken/"]
 )
 def test_operators_and_their_api_tokens_are_managed_in_the_admin(
     admin_ui: Client, url: str
