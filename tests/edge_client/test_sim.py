@@ -57,6 +57,17 @@ def test_a_lost_item_is_requested_again(gcs):
     assert first.seq == again.seq == 0
 
 
+def test_the_last_item_sent_again_is_acked_again(gcs):
+    _, conn, expect = gcs()
+    conn.mav.mission_count_send(1, 1, 1)
+    assert expect("MISSION_REQUEST").seq == 0
+    item = (1, 1, 0, m.MAV_FRAME_GLOBAL, 16, 0, 1, 0, 0, 0, 0, -319800000, 1158200000, 0)
+    conn.mav.mission_item_int_send(*item)
+    assert expect("MISSION_ACK").type == m.MAV_MISSION_ACCEPTED
+    conn.mav.mission_item_int_send(*item)  # as if that MISSION_ACK had been lost
+    assert expect("MISSION_ACK").type == m.MAV_MISSION_ACCEPTED
+
+
 def test_too_many_items_is_no_space(gcs):
     _, conn, expect = gcs(max_items=3)
     conn.mav.mission_count_send(1, 1, 10)

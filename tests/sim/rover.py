@@ -134,6 +134,7 @@ class RoverSim:
         }
         self.last_sent: dict[int, float] = {}
         self.upload: dict[str, Any] | None = None  # in-progress upload
+        self.uploaded: dict[str, Any] | None = None  # the last finished one, to re-ack
         self.peers: dict[int, tuple[int, int]] = {}
         self.counts = {"sent": 0, "dropped": 0, "duplicated": 0, "received": 0}
         self._last_step = time.monotonic()
@@ -467,6 +468,7 @@ class RoverSim:
             self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
             return
         self.upload = {"conn": conn, "count": msg.count, "items": [], "started": now}
+        self.uploaded = None
         self._request_next(now)
 
     def _request_next(self, now: float) -> None:
@@ -511,6 +513,12 @@ class RoverSim:
             )
             return
         up = self.upload
+        done = self.uploaded
+        if up is None and done and done["conn"] is conn and msg.seq == done["count"] - 1:
+            # The last item again: our MISSION_ACK was lost. Say it again (PX4 does, PR #9547)
+            # rather than leave the sender retrying into a cancelled upload.
+            self._mission_ack(conn, done["code"])
+            return
         if up is None or up["conn"] is not conn:
             return
         if msg.seq != len(up["items"]):
@@ -548,11 +556,11 @@ class RoverSim:
             self._request_next(now)
             return
         self.upload = None
-        if self.reject_mission is not None:
-            self._mission_ack(conn, self.reject_mission)
-            return
-        self.mission, self.current, self.jumps = up["items"], 0, {}
-        self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
+        code = mavlink.MAV_MISSION_ACCEPTED if self.reject_mission is None else self.reject_mission
+        self.uploaded = {"conn": conn, "count": up["count"], "code": code}
+        if code == mavlink.MAV_MISSION_ACCEPTED:
+            self.mission, self.current, self.jumps = up["items"], 0, {}
+        self._mission_ack(conn, code)
 
     # Download: vehicle → GCS -----------------------------------------------------------------
 
