@@ -59,6 +59,7 @@ class Rig:
             ["-m", "tests.sim", "--listen", f"udpin:127.0.0.1:{self.sim_port}",
              "--listen", f"udpin:127.0.0.1:{self.observer_port}", "--lat", str(HOME[0]),
              "--lon", str(HOME[1]), "--speed", "50", "--rate", "10", "--prearm-delay", "1",
+             "--position-delay", "1",
              *extra],
             self.tmp / "sim.log",
         ))  # fmt: skip
