@@ -84,6 +84,9 @@ class CommandsConfig:
     arm_before_move: bool = True
     arm_timeout_s: float = 60.0
     acceptance_radius_m: float = 10.0
+    # After boot the autopilot refuses modes that need a position (GUIDED, AUTO, RTL, ...)
+    # until its EKF has one: a command waits this long for it, retrying, before it fails.
+    ready_timeout_s: float = 120.0
 
 
 @dataclass(frozen=True)
@@ -322,6 +325,7 @@ def _check(config: Config, source: str) -> None:
         "[telemetry] batch_size": config.telemetry.batch_size,
         "[commands] poll_period_s": config.commands.poll_period_s,
         "[commands] arm_timeout_s": config.commands.arm_timeout_s,
+        "[commands] ready_timeout_s": config.commands.ready_timeout_s,
         "[commands] acceptance_radius_m": config.commands.acceptance_radius_m,
         "[outbox] max_fixes": config.outbox.max_fixes,
         "[transport] timeout_s": config.transport.timeout_s,

@@ -15,6 +15,8 @@ Kind → action (mission-files.md for the Rover modes):
 ``mission`` upload (home as item 0) then MISSION_SET_CURRENT 1 and AUTO, done when the last
 waypoint is reached (a looping mission is done once it is running). Commands that make the boat
 move arm it first when it is disarmed (``arm_before_move``), waiting out pre-arm checks.
+A mode that needs a position is retried while the autopilot is still getting one after boot
+(``ready_timeout_s``, :meth:`Executor._mode_when_ready`).
 
 The parameter checks (:func:`validate`) are pure and tested on their own.
 """
@@ -45,6 +47,12 @@ NAVIGATION_KINDS = frozenset({"move_to", "hold", "resume", "return_home", "set_m
 # Modes in which Rover drives by itself: entering one arms first (when allowed).
 MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
 MAX_MISSION_ITEMS = 700  # ArduPilot's default storage holds ~700 items on a Pixhawk-class board
+# Rover modes whose Mode::requires_position() is true (Rover/mode.h): refused until the EKF
+# has a position.
+POSITION_MODES = frozenset(
+    {"AUTO", "GUIDED", "LOITER", "FOLLOW", "CIRCLE", "DOCK", "RTL", "SMART_RTL"}
+)
+MODE_RETRY_S = 2.0  # between mode-change attempts while the autopilot gets its position
 
 
 class CommandError(ValueError):
@@ -157,6 +165,9 @@ class Executor:
         outbox: Outbox,
         config: CommandsConfig,
         on_ack: Callable[[], None] | None = None,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], object] | None = None,
     ) -> None:
         self.link = link
         self.outbox = outbox
@@ -168,6 +179,8 @@ class Executor:
         self._known: set[str] = set()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self.clock = clock  # for the ready_timeout_s deadline; tests inject their own
+        self.sleep = sleep or self._stop.wait
 
     # -- lifecycle ----------------------------------------------------------------------------
 
@@ -274,10 +287,48 @@ class Executor:
             self.on_ack()
 
     def _mode(self, name: str) -> str:
+        if name in POSITION_MODES:
+            return self._mode_when_ready(name)
         ok, detail = self.link.set_mode(name)
         if not ok:
             raise CommandError(detail)
         return detail
+
+    def _mode_when_ready(self, name: str) -> str:
+        """Enter a mode that needs a position, waiting out the autopilot's start-up.
+
+        After boot Rover refuses such modes ("Flight mode change failed") until its EKF has a
+        position, which can take a minute after the GPS fix; a command that arrives then must
+        not be thrown away.
+
+        1. Ask for the mode; accepted: done.
+        2. Refused while the vehicle's own reports (EKF_STATUS_REPORT, GPS_RAW_INT, SYS_STATUS,
+           GPS_GLOBAL_ORIGIN/HOME_POSITION: :meth:`VehicleState.position_ready`) say it has a
+           position: the refusal has another reason; fail now with it.
+        3. Otherwise wait, and ask again each ``MODE_RETRY_S`` once those reports no longer
+           say "not ready" (so Rover is not nagged while it plainly cannot).
+        4. At ``ready_timeout_s`` fail with the autopilot's STATUSTEXT and what was missing.
+        """
+        state = self.link.state
+        timeout = self.config.ready_timeout_s
+        deadline = self.clock() + timeout
+        while True:
+            ok, detail = self.link.set_mode(name)
+            if ok:
+                return detail
+            ready, why = state.position_ready()
+            if ready:
+                raise CommandError(detail)
+            log.info("%s; waiting for a position estimate: %s", detail, why)
+            while True:
+                if self.clock() >= deadline:
+                    raise CommandError(f"{detail}; not ready after {timeout:g} s: {why}")
+                if self._stop.is_set():
+                    raise CommandError(f"{detail}; edge client stopping: {why}")
+                self.sleep(MODE_RETRY_S)
+                ready, why = state.position_ready()
+                if ready is not False:
+                    break
 
     def _ensure_armed(self) -> None:
         if self.link.state.armed:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 import uuid
 
@@ -11,9 +12,24 @@ from edge_client.config import CommandsConfig, MavlinkConfig
 from edge_client.executor import Command, CommandError, Executor, validate
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Outbox
+from tests.edge_client.helpers import wait_until
 
 START = (-31.98, 115.82)
 NEAR = (-31.979, 115.8205)  # ~120 m from START
+NEVER = 1e9  # a simulator position_delay_s that a test lowers to 0 when it wants the EKF ready
+
+
+class FakeClock:
+    """An injected monotonic clock whose sleep() moves time on instead of waiting."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
 
 
 def cmd(kind: str, **params) -> Command:
@@ -166,9 +182,53 @@ def test_a_refused_mode_change_fails_the_command(make_sim, make_link, outbox, co
     sim = make_sim(refuse_modes=("LOITER",))
     link = make_link(sim.endpoint)
     executor = Executor(link, outbox, commands_config)
+    wait_until(lambda: link.state.position_ready()[0], 5, "the EKF report")
     c = cmd("set_mode", mode="LOITER")
     executor.execute(c)
-    assert acks(outbox, c.uid) == [("failed", "autopilot refused mode LOITER: DENIED")]
+    # Refused although the autopilot has a position: no waiting, and its reason is given.
+    assert acks(outbox, c.uid) == [
+        ("failed", "autopilot refused mode LOITER: DENIED (Mode change to LOITER refused)")
+    ]
+
+
+def test_a_move_to_sent_while_the_autopilot_gets_its_position_waits_for_it(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim(prearm_delay_s=0, position_delay_s=NEVER)
+    link = make_link(sim.endpoint)
+    wait_until(lambda: link.state.position_ready()[0] is False, 5, "an EKF report, not ready")
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    running = threading.Thread(target=executor.execute, args=(c,))
+    running.start()
+    wait_until(lambda: "Flight mode change failed" in link.state.statustext, 5, "a refusal")
+    assert sim.sim.armed and sim.sim.mode_name == "HOLD"
+    assert acks(outbox, c.uid) == []  # refused, but not given up
+    sim.sim.position_delay_s = 0  # the EKF converges
+    running.join(15)
+    assert statuses(outbox, c.uid) == ["acknowledged"] and sim.sim.mode_name == "GUIDED"
+    run_until_settled(executor)
+    assert statuses(outbox, c.uid) == ["acknowledged", "done"]
+
+
+def test_the_wait_for_a_position_ends_at_the_deadline_with_the_autopilots_reason(
+    make_sim, make_link, outbox
+):
+    sim = make_sim(prearm_delay_s=0, position_delay_s=NEVER)
+    link = make_link(sim.endpoint)
+    wait_until(lambda: link.state.position_ready()[0] is False, 5, "an EKF report, not ready")
+    clock = FakeClock()
+    config = CommandsConfig(arm_timeout_s=5, ready_timeout_s=90)
+    executor = Executor(link, outbox, config, clock=clock, sleep=clock.sleep)
+    c = cmd("return_home")
+    executor.execute(c)
+    ((status, detail),) = acks(outbox, c.uid)
+    assert status == "failed"
+    assert detail == (
+        "autopilot refused mode RTL: FAILED (Flight mode change failed); not ready after 90 s: "
+        "EKF in constant-position mode (no position yet)"
+    )
+    assert 1090 <= clock.now <= 1095 and sim.sim.mode_name == "HOLD"
 
 
 def test_a_newer_navigation_command_replaces_the_active_one(
