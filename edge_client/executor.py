@@ -11,7 +11,8 @@ autopilot has accepted the command, then ``done`` or ``failed`` with a reason a 
 
 Kind → action (mission-files.md for the Rover modes):
 ``move_to`` GUIDED + SET_POSITION_TARGET_GLOBAL_INT, done within the acceptance radius;
-``hold`` HOLD; ``resume`` AUTO; ``return_home`` RTL; ``set_mode``; ``arm``/``disarm``;
+``hold`` HOLD; ``resume`` AUTO; ``return_home`` RTL, done within the acceptance radius of home
+(or when Rover says "Reached destination" and holds there); ``set_mode``; ``arm``/``disarm``;
 ``mission`` upload (home as item 0) then MISSION_SET_CURRENT 1 and AUTO, done when the last
 waypoint is reached (a looping mission is done once it is running). Commands that make the boat
 move arm it first when it is disarmed (``arm_before_move``), waiting out pre-arm checks.
@@ -34,7 +35,7 @@ from datetime import UTC, datetime
 from typing import Any
 
 from edge_client.config import CommandsConfig
-from edge_client.mavlink_link import LinkDown, MavlinkLink
+from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
 from edge_client.mission import MAV_CMD_NAV_WAYPOINT, build_mission, result_name
 from edge_client.outbox import Outbox
 from edge_client.vehicle import CLOCK_SANE_AFTER, ROVER_MODES
@@ -53,6 +54,7 @@ POSITION_MODES = frozenset(
     {"AUTO", "GUIDED", "LOITER", "FOLLOW", "CIRCLE", "DOCK", "RTL", "SMART_RTL"}
 )
 MODE_RETRY_S = 2.0  # between mode-change attempts while the autopilot gets its position
+RTL_ARRIVED = "Reached destination"  # Rover/mode_rtl.cpp STATUSTEXT; a boat then loiters there
 
 
 class CommandError(ValueError):
@@ -377,7 +379,34 @@ class Executor:
         self._simple_mode(command, "AUTO")
 
     def _do_return_home(self, command: Command, p: dict[str, Any]) -> None:
-        self._simple_mode(command, "RTL")
+        state = self.link.state
+        self.link.target()
+        self._ensure_armed()
+        if state.home is None:
+            self.link.request_message(HOME_POSITION_ID)  # its answer sets state.home
+        detail = self._mode("RTL")
+        said = state.statustext_count  # after the mode change: an older arrival is not ours
+        self._ack(command, ACKNOWLEDGED, detail)
+        radius = self.config.acceptance_radius_m
+        seen = ModeSeen("RTL")
+
+        def check() -> tuple[str, str] | None:
+            nonlocal said
+            home = state.home
+            distance = state.distance_to(*home) if home else None
+            if distance is not None and distance <= radius:
+                return DONE, f"home: arrived within {distance:.1f} m (radius {radius:g} m)"
+            # Count first: a text landing in between is seen twice rather than never.
+            count = state.statustext_count
+            heard, said = state.statustext_since(said), count
+            if RTL_ARRIVED in heard and state.mode == "RTL":
+                # Rover's RTL may end at a rally point, or home may still be unknown to us.
+                return DONE, "the autopilot reports it reached home and holds there"
+            if seen.left(state.mode):
+                return FAILED, f"mode changed to {state.mode} before reaching home"
+            return None
+
+        self.active = Active(command, check)
 
     def _do_set_mode(self, command: Command, p: dict[str, Any]) -> None:
         self._simple_mode(command, p["mode"])

@@ -167,6 +167,7 @@ def test_hold_resume_return_home_set_mode_arm_disarm(make_sim, make_link, outbox
     for command, mode in [(cmd("hold"), "HOLD"), (cmd("return_home"), "RTL"),
                           (cmd("set_mode", mode="MANUAL"), "MANUAL")]:  # fmt: skip
         executor.execute(command)
+        run_until_settled(executor)  # return_home: done on arrival (it is already home)
         assert statuses(outbox, command.uid) == ["acknowledged", "done"], acks(outbox, command.uid)
         assert sim.sim.mode_name == mode
     disarm = cmd("disarm")
@@ -176,6 +177,63 @@ def test_hold_resume_return_home_set_mode_arm_disarm(make_sim, make_link, outbox
     executor.execute(resume)
     ((status, detail),) = acks(outbox, resume.uid)
     assert status == "failed" and "refused mode AUTO" in detail
+
+
+def test_return_home_is_done_on_arrival_not_when_rtl_is_accepted(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    away = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    executor.execute(away)
+    run_until_settled(executor)
+    assert link.state.home == START
+    c = cmd("return_home")
+    executor.execute(c)
+    assert statuses(outbox, c.uid) == ["acknowledged"] and sim.sim.mode_name == "RTL"
+    run_until_settled(executor)
+    status, detail = acks(outbox, c.uid)[-1]
+    # Whichever comes first: our position within the radius, or Rover's "Reached destination"
+    # (our position lags it by up to one GLOBAL_POSITION_INT, 10 m at 100 m/s).
+    assert status == "done" and ("home: arrived within" in detail or "reached home" in detail)
+    wait_until(lambda: link.state.distance_to(*START) < 3, 5, "the position at home")
+
+
+def test_return_home_without_a_known_home_is_done_when_rover_says_it_arrived(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    executor.execute(cmd("move_to", lat=NEAR[0], lon=NEAR[1]))
+    run_until_settled(executor)
+    link.on("HOME_POSITION", lambda msg: setattr(link.state, "home", None))  # it never arrives
+    link.state.home = None
+    c = cmd("return_home")
+    executor.execute(c)
+    run_until_settled(executor)
+    assert acks(outbox, c.uid)[-1] == (
+        "done", "the autopilot reports it reached home and holds there"
+    )  # fmt: skip
+    assert sim.sim.mode_name == "RTL"
+    # Our position lags the STATUSTEXT by up to one GLOBAL_POSITION_INT (10 m at 100 m/s).
+    wait_until(lambda: link.state.distance_to(*START) < 3, 5, "the position at home")
+
+
+def test_return_home_fails_if_the_mode_changes_before_arrival(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    executor.execute(cmd("move_to", lat=NEAR[0], lon=NEAR[1]))
+    run_until_settled(executor)
+    c = cmd("return_home")
+    executor.execute(c)
+    sim.sim.mode = 0  # someone on the radio takes over: MANUAL
+    run_until_settled(executor)
+    assert acks(outbox, c.uid)[-1] == ("failed", "mode changed to MANUAL before reaching home")
 
 
 def test_a_refused_mode_change_fails_the_command(make_sim, make_link, outbox, commands_config):
