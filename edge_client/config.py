@@ -93,6 +93,9 @@ class CommandsConfig:
 class OutboxConfig:
     path: str = "/var/lib/shoreside-edge/outbox.sqlite3"
     max_fixes: int = 100_000
+    # Fixes are committed (fsynced) in groups: at the latest once this many wait, and before
+    # each uplink round reads them. A power cut loses at most the fixes not committed yet.
+    commit_every: int = 10
 
 
 @dataclass(frozen=True)
@@ -328,6 +331,7 @@ def _check(config: Config, source: str) -> None:
         "[commands] ready_timeout_s": config.commands.ready_timeout_s,
         "[commands] acceptance_radius_m": config.commands.acceptance_radius_m,
         "[outbox] max_fixes": config.outbox.max_fixes,
+        "[outbox] commit_every": config.outbox.commit_every,
         "[transport] timeout_s": config.transport.timeout_s,
         "[transport.modem] baud": config.transport.modem.baud,
     }

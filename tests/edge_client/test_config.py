@@ -27,6 +27,7 @@ ready_timeout_s = 45
 [outbox]
 path = "/tmp/x.sqlite3"
 max_fixes = 500
+commit_every = 30
 
 [transport]
 kind = "modem"
@@ -55,7 +56,7 @@ def test_it_reads_every_table(tmp_path):
     assert config.telemetry.period_s == 2.0
     assert config.commands.arm_before_move is False
     assert config.commands.ready_timeout_s == 45.0
-    assert config.outbox.max_fixes == 500
+    assert config.outbox.max_fixes == 500 and config.outbox.commit_every == 30
     assert config.transport.kind == "modem"
     assert config.transport.modem.port == "/dev/ttyUSB1"
     assert config.transport.modem.trigger == "don"
