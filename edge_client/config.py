@@ -84,8 +84,9 @@ class CommandsConfig:
     arm_before_move: bool = True
     arm_timeout_s: float = 60.0
     acceptance_radius_m: float = 10.0
-    # After boot the autopilot refuses modes that need a position (GUIDED, AUTO, RTL, ...)
-    # until its EKF has one: a command waits this long for it, retrying, before it fails.
+    # After boot the autopilot may not be heard yet, and refuses modes that need a position
+    # (GUIDED, AUTO, RTL, ...) until its EKF has one: a command waits this long for each,
+    # retrying, before it fails.
     ready_timeout_s: float = 120.0
 
 

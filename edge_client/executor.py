@@ -16,8 +16,10 @@ Kind → action (mission-files.md for the Rover modes):
 ``mission`` upload (home as item 0) then MISSION_SET_CURRENT 1 and AUTO, done when the last
 waypoint is reached (a looping mission is done once it is running). Commands that make the boat
 move arm it first when it is disarmed (``arm_before_move``), waiting out pre-arm checks.
-A mode that needs a position is retried while the autopilot is still getting one after boot
-(``ready_timeout_s``, :meth:`Executor._mode_when_ready`).
+A command polled before the autopilot's first HEARTBEAT (the Pi and the server can be quicker
+than the autopilot after a power-up) waits for it, and a mode that needs a position is
+retried while the autopilot is still getting one; each wait lasts at most ``ready_timeout_s``
+(:meth:`Executor._wait_for_autopilot`, :meth:`Executor._mode_when_ready`).
 
 The parameter checks (:func:`validate`) are pure and tested on their own.
 """
@@ -54,6 +56,7 @@ POSITION_MODES = frozenset(
     {"AUTO", "GUIDED", "LOITER", "FOLLOW", "CIRCLE", "DOCK", "RTL", "SMART_RTL"}
 )
 MODE_RETRY_S = 2.0  # between mode-change attempts while the autopilot gets its position
+HEARTBEAT_WAIT_S = 0.5  # between looks for the autopilot's HEARTBEAT
 RTL_ARRIVED = "Reached destination"  # Rover/mode_rtl.cpp STATUSTEXT; a boat then loiters there
 
 
@@ -252,6 +255,7 @@ class Executor:
                     raise CommandError(f"expired at {command.expires_at.isoformat()} before it ran")
             if command.kind in NAVIGATION_KINDS or command.kind == "disarm":
                 self._supersede(command)
+            self._wait_for_autopilot()
             getattr(self, f"_do_{command.kind}")(command, params)
         except CommandError as exc:
             self._ack(command, FAILED, str(exc))
@@ -287,6 +291,15 @@ class Executor:
             self.outbox.command_finish(command.uid)
         if self.on_ack:
             self.on_ack()
+
+    def _wait_for_autopilot(self) -> None:
+        """Wait up to ``ready_timeout_s`` for the autopilot to be heard (LinkDown after)."""
+        state, timeout = self.link.state, self.config.ready_timeout_s
+        deadline = self.clock() + timeout
+        while state.system is None or not state.autopilot_ok():
+            if self.clock() >= deadline or self._stop.is_set():
+                raise LinkDown(f"no HEARTBEAT from the autopilot within {timeout:g} s")
+            self.sleep(HEARTBEAT_WAIT_S)
 
     def _mode(self, name: str) -> str:
         if name in POSITION_MODES:

@@ -12,6 +12,7 @@ from edge_client.config import CommandsConfig, MavlinkConfig
 from edge_client.executor import Command, CommandError, Executor, validate
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Outbox
+from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import wait_until
 
 START = (-31.98, 115.82)
@@ -113,11 +114,33 @@ def test_commands_interrupted_by_a_restart_are_failed_with_the_reason(outbox, co
 
 def test_without_an_autopilot_a_command_fails_with_the_reason(outbox, commands_config):
     link = MavlinkLink(MavlinkConfig(connection="udpout:127.0.0.1:9"))
-    executor = Executor(link, outbox, commands_config)
+    clock = FakeClock()
+    executor = Executor(link, outbox, commands_config, clock=clock, sleep=clock.sleep)
     c = cmd("move_to", lat=1.0, lon=2.0)
     executor.execute(c)
-    ((status, detail),) = acks(outbox, c.uid)
-    assert status == "failed" and "autopilot not reachable" in detail
+    assert acks(outbox, c.uid) == [
+        ("failed", "autopilot not reachable: no HEARTBEAT from the autopilot within 120 s")
+    ]
+    assert 1120 <= clock.now < 1121  # it waited ready_timeout_s for one
+
+
+def test_a_command_polled_before_the_autopilot_is_heard_waits_for_it(
+    make_sim, outbox, commands_config
+):
+    port = free_port()
+    link = MavlinkLink(MavlinkConfig(connection=f"udpout:127.0.0.1:{port}", stream_rate_hz=10))
+    link.start()
+    try:
+        executor = Executor(link, outbox, commands_config)
+        c = cmd("hold")
+        running = threading.Thread(target=executor.execute, args=(c,))
+        running.start()
+        wait_until(lambda: executor.executed == [c.uid], 5, "the command to start")
+        make_sim(port=port)  # the autopilot finishes booting
+        running.join(15)
+        assert statuses(outbox, c.uid) == ["acknowledged", "done"], acks(outbox, c.uid)
+    finally:
+        link.stop()
 
 
 # -- against the simulator ------------------------------------------------------------------------
