@@ -123,6 +123,23 @@ def test_move_to_end_to_end(live_server, boat, rig):
     assert stop(rig.edge) == 0
 
 
+def test_a_command_waiting_when_the_boat_boots_is_carried_out(live_server, boat, rig):
+    """The field report: queued before the boat starts, the autopilot not ready to take GUIDED
+    for its first seconds; the client waits for the position instead of failing the command."""
+    vessel, key = boat
+    target = (-31.9795, 115.8205)
+    command = command_enqueue(
+        vessel=vessel,
+        kind="move_to",
+        params={"lat": target[0], "lon": target[1]},
+        created_by="test",
+    )
+    rig.sim("--position-delay", "5")  # the last flag wins over the rig's 1 s
+    rig.client(live_server.url, key)
+    wait_until(lambda: command_status(command) in ("done", "failed"), 40, "move_to to finish")
+    assert command.status == "done", (command.result_detail, rig.log()[-3000:])
+
+
 FIVE = [
     {"lat": -31.9795, "lon": 115.8205, "hold_s": 0.5, "radius_m": 2},
     {"lat": -31.9790, "lon": 115.8212, "hold_s": 0.5, "radius_m": 2},
