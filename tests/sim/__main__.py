@@ -39,9 +39,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--position-delay",
         type=float,
-        default=30.0,
+        default=0.0,
         help="seconds after start before the EKF has a position (GPS fix at half of it); "
-        "until then, armed, modes that need a position are refused",
+        "until then, armed, modes that need a position are refused (a real Rover: 30-60)",
     )
     p.add_argument(
         "--request-int",
