@@ -4,7 +4,7 @@
 
 Runs, side by side for ``--duration`` seconds (after a short warm-up):
 
-- the simulated Rover (``tests.sim``) streaming GLOBAL_POSITION_INT at 4 Hz, one per client;
+- the simulated Rover (``edge_client.sim``) streaming GLOBAL_POSITION_INT at 4 Hz, one per client;
 - the edge client (real process, HTTP transport) with telemetry every 2 s, polling every 2 s
   (the thesis' cadence) and every 10 s (the default), each against its own tiny stdlib HTTP
   server that speaks the boat API (ETag/304 included) and counts every byte in and out;
@@ -172,7 +172,7 @@ class EdgeRun:
         self.label = label
         self.server = serve()
         port = free_udp_port()
-        self.sim = spawn(["-m", "tests.sim", "--listen", f"udpin:127.0.0.1:{port}",
+        self.sim = spawn(["-m", "edge_client.sim", "--listen", f"udpin:127.0.0.1:{port}",
                           "--rate", str(SIM_RATE_HZ), "--prearm-delay", "0"])  # fmt: skip
         self.client = spawn([
             "-m", "edge_client", "run", "--server",

@@ -1031,9 +1031,9 @@ def django_helper(args: list[str]) -> None:
     django.setup()
     from django.contrib.auth import get_user_model
     from django.db.models import Count
-    from rest_framework.authtoken.models import Token
 
     from commands.services import command_enqueue
+    from operators.services import operator_token_issue
     from vessels.models import Vessel
     from vessels.services import vessel_create, vessel_key_issue
 
@@ -1046,7 +1046,7 @@ def django_helper(args: list[str]) -> None:
             if slug.startswith("boat-"):
                 command_enqueue(vessel=vessel, kind="hold", params={}, created_by="bench")
         user = get_user_model().objects.create_superuser("bench", "bench@example.invalid", None)
-        keys["@operator-token"] = Token.objects.create(user=user).key
+        keys["@operator-token"] = operator_token_issue(user=user, name="bench", expires_in=None)[1]
         print(json.dumps(keys))
     elif command == "count":
         rows = Vessel.objects.annotate(n=Count("fixes")).values_list("slug", "n")

@@ -9,8 +9,9 @@ from django.contrib import admin, messages
 from django.db.models import QuerySet
 from django.http import HttpRequest
 
+from commands.errors import CommandError
 from commands.forms import CommandForm
-from commands.lifecycle import OPEN, TransitionError
+from commands.lifecycle import OPEN
 from commands.models import Command, CommandEvent, Source
 from commands.services import command_cancel, command_enqueue
 
@@ -132,8 +133,8 @@ class CommandAdmin(admin.ModelAdmin):
             try:
                 command_cancel(command=command, actor=request.user.get_username())
                 done += 1
-            except TransitionError as exc:
-                messages.warning(request, f"{command.uid}: {exc}")
+            except CommandError as exc:  # it moved on (acknowledged, done) meanwhile
+                messages.warning(request, f"{command.uid}: {exc.message}")
         skipped = queryset.count() - done
         messages.success(
             request,

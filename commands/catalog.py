@@ -11,9 +11,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-MAVLINK = "mavlink"
-WAVE_GLIDER = "wave_glider"
-VESSEL_KINDS = (MAVLINK, WAVE_GLIDER)
+from commands.errors import CatalogError
+from vessels.kinds import MAVLINK, WAVE_GLIDER
 
 # ArduPilot Rover flight modes (ArduPilot Rover/mode.h, `enum Number`); INITIALISING is not
 # a mode an operator can ask for.
@@ -36,18 +35,6 @@ ROVER_MODES: dict[str, int] = {
 # Wave Glider waypoint table indices (thesis Table 3: "at the specified index (1-254)").
 WG_INDEX_MIN, WG_INDEX_MAX = 1, 254
 MISSION_MAX_ITEMS = 500
-
-
-class CatalogError(ValueError):
-    """A command a person asked for is not valid; the message says why, in words."""
-
-    def __init__(self, message: str, *, field: str | None = None) -> None:
-        super().__init__(message)
-        self.message = message
-        self.field = field
-
-    def as_dict(self) -> dict[str, list[str]]:
-        return {self.field or "non_field_errors": [self.message]}
 
 
 def _is_number(value: Any) -> bool:
@@ -164,14 +151,14 @@ RADIUS_M = Param(
     required=False,
     default=None,
 )
-_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M)
+MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M)
 
 
 def _clean_mission_item(index: int, item: Any) -> dict[str, Any]:
     if not isinstance(item, Mapping):
         raise CatalogError(f"items[{index}] must be an object with lat and lon", field="items")
     try:
-        return _clean_params(_ITEM_PARAMS, item)
+        return _clean_params(MISSION_ITEM_PARAMS, item)
     except CatalogError as exc:
         raise CatalogError(f"items[{index}]: {exc.message}", field="items") from None
 

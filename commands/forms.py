@@ -11,13 +11,28 @@ from typing import Any
 from django import forms
 
 from commands import catalog
+from commands.errors import CatalogError, CommandError
 from commands.models import Command
-from commands.services import CommandError, command_validate
+from commands.services import command_validate
 from vessels.models import Mission, Vessel
 
 
 def field_name(kind: str, param: str) -> str:
     return f"{kind}__{param}"
+
+
+def add_command_error(form: forms.BaseForm, exc: CommandError, *, kind: str | None) -> None:
+    """Put a commands-app error on the form field it names, or on the form as a whole.
+
+    The one adapter from the app's errors to form errors (the API's is ``fleet.api``): a
+    catalog error names a parameter of ``kind``, shown on that kind's field when it has one.
+    """
+    target = None
+    if isinstance(exc, CatalogError) and exc.field:
+        target = (
+            exc.field if exc.field in {"kind", "mission"} else field_name(kind or "", exc.field)
+        )
+    form.add_error(target if target in form.fields else None, exc.message)
 
 
 def _form_field(param: catalog.Param) -> forms.Field:
@@ -76,14 +91,14 @@ class CommandForm(forms.ModelForm):
                 try:
                     value = [int(v) for v in value.replace(",", " ").split()]
                 except ValueError:
-                    raise catalog.CatalogError(
+                    raise CatalogError(
                         f"{param.name} must be whole numbers", field=param.name
                     ) from None
             params[param.name] = value
         if kind.name == "mission":
             mission = self.cleaned_data.get("mission")
             if mission is None:
-                raise catalog.CatalogError("choose a mission", field="mission")
+                raise CatalogError("choose a mission", field="mission")
             params = mission.as_params()
         return params
 
@@ -102,15 +117,7 @@ class CommandForm(forms.ModelForm):
                 expires_at=cleaned.get("expires_at"),
             )
         except CommandError as exc:
-            self.add_error(None, str(exc))
-            return cleaned
-        except catalog.CatalogError as exc:
-            target = field_name(kind_name, exc.field) if exc.field else None
-            if exc.field == "mission":
-                target = "mission"
-            elif exc.field == "kind" or target not in self.fields:
-                target = "kind" if exc.field == "kind" else None
-            self.add_error(target, exc.message)
+            add_command_error(self, exc, kind=kind_name)
             return cleaned
         cleaned["params"] = valid.params
         return cleaned

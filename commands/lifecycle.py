@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from enum import StrEnum
 
+from commands.errors import TransitionError
+
 
 class Status(StrEnum):
     QUEUED = "queued"
@@ -35,13 +37,6 @@ TRANSITIONS: dict[Status, frozenset[Status]] = {
 # Statuses a vessel may report in an ack, in the order they happen.
 ACK_STATUSES = (Status.ACKNOWLEDGED, Status.DONE, Status.FAILED)
 _ACK_RANK = {Status.SENT: 0, Status.ACKNOWLEDGED: 1, Status.DONE: 2, Status.FAILED: 2}
-
-
-class TransitionError(ValueError):
-    def __init__(self, current: Status, target: Status) -> None:
-        super().__init__(f"cannot go from {current} to {target}")
-        self.current = current
-        self.target = target
 
 
 def can_transition(current: Status, target: Status) -> bool:

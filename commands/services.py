@@ -12,12 +12,12 @@ from django.db import connection, transaction
 from django.utils import timezone
 
 from commands import catalog
+from commands.errors import CommandError, CommandNotFound, TransitionError
 from commands.lifecycle import (
     ACK_STATUSES,
     FINAL,
     OPEN,
     Status,
-    TransitionError,
     ack_is_stale,
     check_transition,
 )
@@ -44,14 +44,6 @@ _ENQUEUE_LOCK_SPACE = 0x5353  # "SS", Shoreside
 
 # NUL and the UTF-16 surrogate range: neither can be stored as text on PostgreSQL.
 _UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
-
-
-class CommandError(ValueError):
-    """A command request that cannot be carried out; the message says why."""
-
-
-class CommandNotFound(CommandError):
-    pass
 
 
 def _transition(
@@ -278,7 +270,7 @@ def command_ack(
     except ValueError:
         reported = None
     if reported not in ACK_STATUSES:
-        raise CommandError("status must be acknowledged, done or failed")
+        raise CommandError("status must be acknowledged, done or failed", field="status")
     command = _get_for_vessel(vessel, uid)
     for _attempt in range(3):
         current = Status(command.status)

@@ -36,20 +36,24 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
+from edge_client.catalog import (
+    KIND_PARAMS,
+    MISSION_MAX_ITEMS,
+    NAVIGATION_KINDS,
+    RANGES,
+    ROVER_MODES,
+)
 from edge_client.config import CommandsConfig
 from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
 from edge_client.mission import MAV_CMD_NAV_WAYPOINT, build_mission, result_name
 from edge_client.outbox import Outbox
-from edge_client.vehicle import CLOCK_SANE_AFTER, ROVER_MODES
+from edge_client.vehicle import CLOCK_SANE_AFTER
 
 log = logging.getLogger(__name__)
 
 ACKNOWLEDGED, DONE, FAILED = "acknowledged", "done", "failed"
-# Kinds that give the boat a new navigation goal, replacing whatever it was doing.
-NAVIGATION_KINDS = frozenset({"move_to", "hold", "resume", "return_home", "set_mode", "mission"})
 # Modes in which Rover drives by itself: entering one arms first (when allowed).
 MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
-MAX_MISSION_ITEMS = 700  # ArduPilot's default storage holds ~700 items on a Pixhawk-class board
 # Rover modes whose Mode::requires_position() is true (Rover/mode.h): refused until the EKF
 # has a position.
 POSITION_MODES = frozenset(
@@ -88,53 +92,71 @@ def parse_command(raw: Any) -> Command:
     return Command(uid=raw["uid"], kind=str(raw.get("kind", "")), params=params, expires_at=expires)
 
 
-def _number(params: dict[str, Any], name: str, lo: float, hi: float) -> float:
-    value = params.get(name)
+def _number(value: Any, name: str) -> float:
+    """A finite number within the catalog's range for ``name`` (edge_client/catalog.py)."""
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise CommandError(f"{name} must be a number, got {value!r}")
-    if not lo <= value <= hi:
-        raise CommandError(f"{name} {value} is outside {lo}…{hi}")
+    lo, hi = RANGES[name]
+    if (lo is not None and value < lo) or (hi is not None and value > hi):
+        raise CommandError(f"{name} {value} is outside {_bound(lo)}…{_bound(hi)}")
     return float(value)
 
 
+def _bound(limit: float | None) -> str:
+    return "" if limit is None else f"{limit:g}"
+
+
+def _mission_item(item: Any) -> dict[str, Any]:
+    if not isinstance(item, dict):
+        raise CommandError("is not an object")
+    hold, radius = item.get("hold_s"), item.get("radius_m")
+    return {
+        "lat": _number(item.get("lat"), "lat"),
+        "lon": _number(item.get("lon"), "lon"),
+        "hold_s": 0.0 if hold is None else _number(hold, "hold_s"),
+        # No radius: 0 on the wire, which makes the autopilot use its own WP_RADIUS (common.xml
+        # MAV_CMD_NAV_WAYPOINT param2).
+        "radius_m": 0.0 if radius is None else _number(radius, "radius_m"),
+    }
+
+
+def _mission(params: dict[str, Any]) -> dict[str, Any]:
+    items = params.get("items")
+    if not isinstance(items, list) or not items:
+        raise CommandError("mission has no items")
+    if len(items) > MISSION_MAX_ITEMS:
+        raise CommandError(f"mission has {len(items)} items, more than {MISSION_MAX_ITEMS}")
+    clean = []
+    for i, item in enumerate(items):
+        try:
+            clean.append(_mission_item(item))
+        except CommandError as exc:
+            raise CommandError(f"item {i}: {exc}") from None
+    mission_id = params.get("mission_id")
+    if mission_id is not None:
+        if not float(_number(mission_id, "mission_id")).is_integer():
+            raise CommandError(f"mission_id must be a whole number, got {mission_id!r}")
+        mission_id = int(mission_id)
+    return {"items": clean, "loop": bool(params.get("loop", False)), "mission_id": mission_id}
+
+
 def validate(kind: str, params: dict[str, Any]) -> dict[str, Any]:
-    """Check a command's params (the server validated them too; a boat trusts no one)."""
+    """Check a command's params (the server validated them too; a boat trusts no one).
+
+    The kinds, ranges, limits and mode names are the catalog's (edge_client/catalog.py).
+    """
+    if kind not in KIND_PARAMS:
+        raise CommandError(f"unknown command kind {kind!r}")
     if kind == "move_to":
-        return {"lat": _number(params, "lat", -90, 90), "lon": _number(params, "lon", -180, 180)}
-    if kind in ("hold", "resume", "return_home", "arm", "disarm"):
-        return {}
+        return {"lat": _number(params.get("lat"), "lat"), "lon": _number(params.get("lon"), "lon")}
     if kind == "set_mode":
         mode = params.get("mode")
         if not isinstance(mode, str) or mode.upper() not in ROVER_MODES:
             raise CommandError(f"unknown Rover mode {mode!r} (known: {', '.join(ROVER_MODES)})")
         return {"mode": mode.upper()}
     if kind == "mission":
-        items = params.get("items")
-        if not isinstance(items, list) or not items:
-            raise CommandError("mission has no items")
-        if len(items) > MAX_MISSION_ITEMS:
-            raise CommandError(f"mission has {len(items)} items, more than {MAX_MISSION_ITEMS}")
-        clean = []
-        for i, item in enumerate(items):
-            if not isinstance(item, dict):
-                raise CommandError(f"item {i} is not an object")
-            try:
-                clean.append(
-                    {
-                        "lat": _number(item, "lat", -90, 90),
-                        "lon": _number(item, "lon", -180, 180),
-                        "hold_s": _number({"v": item.get("hold_s") or 0}, "v", 0, 86400),
-                        "radius_m": _number({"v": item.get("radius_m") or 0}, "v", 0, 10_000),
-                    }
-                )
-            except CommandError as exc:
-                raise CommandError(f"item {i}: {exc}") from None
-        return {
-            "items": clean,
-            "loop": bool(params.get("loop", False)),
-            "mission_id": params.get("mission_id"),
-        }
-    raise CommandError(f"unknown command kind {kind!r}")
+        return _mission(params)
+    return {}
 
 
 @dataclass

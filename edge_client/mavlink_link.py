@@ -29,9 +29,10 @@ from typing import Any
 
 from pymavlink import mavutil
 
+from edge_client.catalog import ROVER_MODES
 from edge_client.config import MavlinkConfig, ReadingSource
 from edge_client.mission import MissionDownload, MissionItem, MissionUpload, Out
-from edge_client.vehicle import ROVER_MODES, VehicleState
+from edge_client.vehicle import VehicleState
 
 log = logging.getLogger(__name__)
 

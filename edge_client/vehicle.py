@@ -25,33 +25,18 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
 
+from edge_client.catalog import INITIALISING, ROVER_MODES
 from edge_client.config import ReadingSource
+from edge_client.geo import distance_m
 
 log = logging.getLogger(__name__)
 
-# ArduPilot Rover flight modes (ArduPilot Rover/mode.h, enum Mode::Number).
-ROVER_MODES: dict[str, int] = {
-    "MANUAL": 0,
-    "ACRO": 1,
-    "STEERING": 3,
-    "HOLD": 4,
-    "LOITER": 5,
-    "FOLLOW": 6,
-    "SIMPLE": 7,
-    "DOCK": 8,
-    "CIRCLE": 9,
-    "AUTO": 10,
-    "RTL": 11,
-    "SMART_RTL": 12,
-    "GUIDED": 15,
-    "INITIALISING": 16,
-}
-MODE_NAMES = {v: k for k, v in ROVER_MODES.items()}
+# HEARTBEAT custom_mode → name: the modes of the catalog plus the one seen while booting.
+MODE_NAMES = {number: name for name, number in ROVER_MODES.items()} | {INITIALISING: "INITIALISING"}
 
 MAV_MODE_FLAG_SAFETY_ARMED = 128
 MAV_AUTOPILOT_INVALID = 8  # HEARTBEATs from GCSs and companions carry this; ignore them
 UINT16_UNKNOWN = 65535
-EARTH_RADIUS_M = 6_371_000.0
 # Before this the Pi's clock has not been set (no RTC on a Pi Zero): trust the autopilot's.
 CLOCK_SANE_AFTER = datetime(2024, 1, 1, tzinfo=UTC).timestamp()
 # Position readiness, as Rover::ekf_position_ok() judges it for an armed vehicle:
@@ -62,14 +47,6 @@ EKF_CONST_POS_MODE = 128
 GPS_FIX_TYPE_3D_FIX = 3
 MAV_SYS_STATUS_SENSOR_GPS = 0x20
 MAV_SYS_STATUS_AHRS = 0x200000
-
-
-def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    """Great-circle distance (haversine), good to well under a metre at boat scales."""
-    p1, p2 = math.radians(lat1), math.radians(lat2)
-    dp, dl = p2 - p1, math.radians(lon2 - lon1)
-    a = math.sin(dp / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
-    return 2 * EARTH_RADIUS_M * math.asin(math.sqrt(min(1.0, a)))
 
 
 @dataclass

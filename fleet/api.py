@@ -2,27 +2,22 @@
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
+from django.core.exceptions import RequestDataTooBig
 from django.core.exceptions import ValidationError as DjangoValidationError
+from django.db import InterfaceError, OperationalError
 from django.http import Http404
-from rest_framework import exceptions, parsers, status
+from rest_framework import exceptions, status
 from rest_framework.response import Response
 from rest_framework.views import exception_handler as drf_exception_handler
 
+from commands.errors import CatalogError, CommandError, CommandNotFound, TransitionError
+from fleet.error_views import too_large_detail
+from telemetry.errors import TelemetryError
 
-class JSONParser(parsers.JSONParser):
-    """DRF's JSON parser, with a deeply nested body a 400 like any other malformed JSON.
-
-    Python's json raises RecursionError (not a ValueError) past ~1,000 levels, which DRF
-    lets through as a 500; a few hundred kB of brackets is enough.
-    """
-
-    def parse(self, stream: Any, media_type: str | None = None, parser_context: Any = None) -> Any:
-        try:
-            return super().parse(stream, media_type, parser_context)
-        except RecursionError:
-            raise exceptions.ParseError("JSON parse error - nested too deeply") from None
+logger = logging.getLogger(__name__)
 
 
 class Conflict(exceptions.APIException):
@@ -31,12 +26,54 @@ class Conflict(exceptions.APIException):
     default_detail = "The request conflicts with the current state."
 
 
-def exception_handler(exc: Exception, context: dict[str, Any]) -> Response | None:
+class TooLarge(exceptions.APIException):
+    status_code = status.HTTP_413_REQUEST_ENTITY_TOO_LARGE
+    default_code = "too_large"
+
+
+class DatabaseUnavailable(exceptions.APIException):
+    """The database went away mid-request (a restart, a failover): nothing was committed,
+    and the same request will work in a moment. Boats retry from their outbox."""
+
+    status_code = status.HTTP_503_SERVICE_UNAVAILABLE
+    default_code = "database_unavailable"
+    default_detail = "The database is unavailable for a moment; retry shortly."
+    retry_after_s = 5
+
+
+def domain_to_api(exc: Exception) -> Exception:
+    """The apps' own errors as DRF exceptions: the one place they become HTTP answers.
+
+    Not found → 404, an illegal status transition → 409, any other command error → 400
+    naming the field. Catalog errors name a parameter, which the API body nests in `params`.
+    """
+    if isinstance(exc, CommandNotFound):
+        return exceptions.NotFound(exc.message)
+    if isinstance(exc, TransitionError):
+        return Conflict(exc.message)
+    if isinstance(exc, CatalogError):
+        return exceptions.ValidationError(
+            {"kind" if exc.field == "kind" else "params": [exc.message]}
+        )
+    if isinstance(exc, CommandError):
+        return exceptions.ValidationError(exc.as_dict())
+    if isinstance(exc, RequestDataTooBig):
+        return TooLarge(too_large_detail())
+    if isinstance(exc, OperationalError | InterfaceError):
+        logger.warning("database error answered 503: %s", exc)
+        return DatabaseUnavailable()
+    if isinstance(exc, TelemetryError):
+        return exceptions.ParseError(exc.message)
     if isinstance(exc, DjangoValidationError):
         detail = exc.message_dict if hasattr(exc, "error_dict") else exc.messages
-        exc = exceptions.ValidationError(detail)
+        return exceptions.ValidationError(detail)
     if isinstance(exc, Http404):
-        exc = exceptions.NotFound()
+        return exceptions.NotFound()
+    return exc
+
+
+def exception_handler(exc: Exception, context: dict[str, Any]) -> Response | None:
+    exc = domain_to_api(exc)
     response = drf_exception_handler(exc, context)
     if response is None:
         return None
@@ -52,4 +89,6 @@ def exception_handler(exc: Exception, context: dict[str, Any]) -> Response | Non
             else response.data
         )
         response.data = {"error": code, "detail": detail}
+    if isinstance(exc, DatabaseUnavailable):
+        response["Retry-After"] = str(exc.retry_after_s)
     return response

@@ -1,34 +1,24 @@
-"""Keep boat API responses small: the link is 3G or satellite and billed by the byte."""
+"""Requests that name something no database can hold are answered before they reach one."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
-from django.http import HttpRequest, HttpResponse
-
-BOAT_PREFIXES = ("/api/v1/boat/", "/spab/")
-# Browser-only headers: a boat has no DOM to protect, and each costs bytes on every poll.
-_DROP = (
-    "X-Frame-Options",
-    "Referrer-Policy",
-    "Cross-Origin-Opener-Policy",
-    "X-Content-Type-Options",
-    "Vary",
-    "Allow",
-    "Strict-Transport-Security",
-)
+from django.http import Http404, HttpRequest, HttpResponse
 
 
-class BoatApiSlimMiddleware:
-    """Outermost middleware: strips browser security headers from boat API responses."""
+class RejectNulMiddleware:
+    """A NUL in the path or the query string is a 404.
+
+    PostgreSQL cannot hold NUL in text, so a slug or an admin filter value carrying one
+    (`/api/v1/vessels/%00/`, `?status__exact=%00`) failed in the database as a 500. Nothing
+    stored can match such a value: "not found" is the true answer, for every view at once.
+    """
 
     def __init__(self, get_response: Callable[[HttpRequest], HttpResponse]) -> None:
         self.get_response = get_response
 
     def __call__(self, request: HttpRequest) -> HttpResponse:
-        response = self.get_response(request)
-        if request.path_info.startswith(BOAT_PREFIXES):
-            for header in _DROP:
-                if header in response.headers:
-                    del response.headers[header]
-        return response
+        if "\x00" in request.path_info or "%00" in request.META.get("QUERY_STRING", ""):
+            raise Http404("NUL in the request")
+        return self.get_response(request)

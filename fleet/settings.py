@@ -7,11 +7,14 @@ Production safety is enforced by the system checks in fleet/checks.py.
 from __future__ import annotations
 
 import os
+import re
 import secrets
 from pathlib import Path
 from urllib.parse import parse_qsl, unquote, urlsplit
 
 from django.core.exceptions import ImproperlyConfigured
+
+from fleet.files import create_private, write_private
 
 BASE_DIR = Path(__file__).resolve().parent.parent
 
@@ -40,6 +43,17 @@ def env_int(name: str, default: int) -> int:
         return int(raw)
     except ValueError:
         raise ValueError(f"{name}={raw!r} is not an integer") from None
+
+
+def env_rate(name: str, default: str) -> str | None:
+    """A request rate in DRF's form (`600/min`: per s, min, hour or day), or `off` (None)."""
+    raw = os.environ.get(name)
+    value = default if raw is None or not raw.strip() else raw.strip().lower()
+    if value == "off":
+        return None
+    if not re.fullmatch(r"\d+/(s|sec|second|m|min|minute|h|hour|d|day)", value):
+        raise ValueError(f"{name}={raw!r} is not a rate (e.g. 600/min, 20/s, 5000/day, or off)")
+    return value
 
 
 def env_list(name: str, default: list[str]) -> list[str]:
@@ -100,19 +114,22 @@ def _sqlite(path: Path) -> dict[str, object]:
 
 # Local data (SQLite file, generated secret key) lives outside the source tree.
 DATA_DIR = Path(os.environ.get("SHORESIDE_DATA_DIR", BASE_DIR.parent / "shoreside-data")).resolve()
+# Only the service's user may enter it: it holds the database and the generated secret key.
+# (The mode applies when the folder is created; an existing folder is left as it is.)
+DATA_DIR.mkdir(mode=0o700, parents=True, exist_ok=True)
 
 DEBUG = env_bool("DEBUG", False)
 # PRODUCTION=1 turns on HTTPS-only cookies and redirects and requires SECRET_KEY. Without it
 # ALLOWED_HOSTS defaults to this machine only, so a forgotten variable fails closed (and
 # fleet.W002 warns when non-local hosts are served without it).
 PRODUCTION = env_bool("PRODUCTION", False)
-
-
-def write_private(path: Path, text: str) -> None:
-    """Write a file only its owner can read, from the first byte (no chmod-after window)."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(fd, "w") as handle:
-        handle.write(text)
+if PRODUCTION and DEBUG:
+    # fleet.E003 is only a system check, and gunicorn runs no checks: it would serve Django's
+    # debug pages (settings, SQL, tracebacks) to the internet. Refuse to start instead.
+    raise ImproperlyConfigured(
+        "DEBUG=1 and PRODUCTION=1 together would show Django's debug pages to anyone: "
+        "set DEBUG=0 on a production server."
+    )
 
 
 def _secret_key() -> str:
@@ -139,9 +156,7 @@ ALLOWED_HOSTS = env_list(
 CSRF_TRUSTED_ORIGINS = env_list("CSRF_TRUSTED_ORIGINS", [])
 
 INSTALLED_APPS = [
-    # SimpleAdminConfig: no autodiscover, because django-leaflet's admin module imports
-    # GeoDjango (GDAL), which this project deliberately does without (DESIGN §3).
-    # fleet.apps registers the project's own admin modules instead.
+    # No autodiscover: see fleet.apps (django-leaflet's admin module needs GDAL).
     "django.contrib.admin.apps.SimpleAdminConfig",
     "django.contrib.auth",
     "django.contrib.contenttypes",
@@ -149,10 +164,11 @@ INSTALLED_APPS = [
     "django.contrib.messages",
     "django.contrib.staticfiles",
     "rest_framework",
-    "rest_framework.authtoken",
+    "knox",  # its token model is swapped for operators.OperatorToken
     "drf_spectacular",
     "drf_spectacular_sidecar",
     "leaflet",
+    "operators",
     "vessels",
     "telemetry",
     "commands",
@@ -160,7 +176,8 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
-    "fleet.middleware.BoatApiSlimMiddleware",
+    "vessels.middleware.BoatApiSlimMiddleware",
+    "fleet.middleware.RejectNulMiddleware",
     "django.middleware.security.SecurityMiddleware",
     # Serves the vendored front-end assets (Leaflet, Swagger UI) itself: no CDN, no internet.
     "whitenoise.middleware.WhiteNoiseMiddleware",
@@ -197,6 +214,15 @@ else:
     DATABASES = {"default": _sqlite(DATA_DIR / "shoreside.sqlite3")}
 
 DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
+
+# SQLite creates a missing database file with the umask's mode (world-readable under 022) and
+# gives its -wal and -shm files the database file's mode: create it private first (an empty
+# file is an empty database).
+for _db in DATABASES.values():
+    if _db["ENGINE"] == "django.db.backends.sqlite3" and not str(_db["NAME"]).startswith(
+        (":", "file:")
+    ):
+        create_private(Path(_db["NAME"]))
 
 AUTH_PASSWORD_VALIDATORS = [
     {"NAME": "django.contrib.auth.password_validation.UserAttributeSimilarityValidator"},
@@ -237,12 +263,12 @@ if env_bool("BEHIND_TLS_PROXY", False):
 REST_FRAMEWORK = {
     "DEFAULT_AUTHENTICATION_CLASSES": [
         "rest_framework.authentication.SessionAuthentication",
-        "rest_framework.authentication.TokenAuthentication",
+        "operators.auth.OperatorTokenAuthentication",
     ],
-    "DEFAULT_PERMISSION_CLASSES": ["fleet.permissions.ModelPermissions"],
+    "DEFAULT_PERMISSION_CLASSES": ["vessels.permissions.ModelPermissions"],
     "DEFAULT_RENDERER_CLASSES": ["rest_framework.renderers.JSONRenderer"]
     + (["rest_framework.renderers.BrowsableAPIRenderer"] if DEBUG else []),
-    "DEFAULT_PARSER_CLASSES": ["fleet.api.JSONParser"],
+    "DEFAULT_PARSER_CLASSES": ["vessels.api.parsers.JSONParser"],
     "DEFAULT_PAGINATION_CLASS": "rest_framework.pagination.CursorPagination",
     "PAGE_SIZE": 500,
     "DEFAULT_SCHEMA_CLASS": "drf_spectacular.openapi.AutoSchema",
@@ -250,6 +276,16 @@ REST_FRAMEWORK = {
     # `?format=csv` is the exports' own parameter, not DRF content negotiation.
     "URL_FORMAT_OVERRIDE": None,
     "UNAUTHENTICATED_USER": None,
+    # Per vessel (boats) and per user (operators), in the cache below (vessels/throttles.py).
+    "DEFAULT_THROTTLE_CLASSES": [
+        "vessels.throttles.BoatRateThrottle",
+        "vessels.throttles.OperatorRateThrottle",
+    ],
+    "DEFAULT_THROTTLE_RATES": {
+        # A boat posting every second and polling every 2 s makes ~100 requests a minute.
+        "boat": env_rate("THROTTLE_BOAT_RATE", "600/min"),
+        "operator": env_rate("THROTTLE_OPERATOR_RATE", "1200/min"),
+    },
 }
 
 SPECTACULAR_SETTINGS = {
@@ -261,7 +297,19 @@ SPECTACULAR_SETTINGS = {
     "SWAGGER_UI_DIST": "SIDECAR",
     "SWAGGER_UI_FAVICON_HREF": "SIDECAR",
     "REDOC_DIST": "SIDECAR",
+    "POSTPROCESSING_HOOKS": [
+        "drf_spectacular.hooks.postprocess_schema_enums",
+        "fleet.schema.add_error_responses",
+    ],
 }
+
+# Operators' personal API tokens (operators app on django-rest-knox): only a SHA-512 digest
+# is stored; `sst_` makes a leaked token recognisable. Issued by the admin and `issue_token`.
+KNOX_TOKEN_MODEL = "operators.OperatorToken"
+REST_KNOX = {"TOKEN_MODEL": KNOX_TOKEN_MODEL, "TOKEN_PREFIX": "sst_", "AUTH_HEADER_PREFIX": "Token"}
+# knox's own migrations would still create its (swapped-out) table, unused, with a foreign key
+# to auth_user that makes flush's TRUNCATE fail on PostgreSQL.
+MIGRATION_MODULES = {"knox": None}
 
 # Map tiles come from a configurable URL; with none reachable the map still shows tracks.
 MAP_TILES_URL = os.environ.get("MAP_TILES_URL", "https://tile.openstreetmap.org/{z}/{x}/{y}.png")
@@ -280,6 +328,25 @@ FIX_MAX_FUTURE_S = env_int("FIX_MAX_FUTURE_S", 300)
 KEY_TOUCH_INTERVAL_S = env_int("KEY_TOUCH_INTERVAL_S", 60)
 COMMAND_DEFAULT_TTL_S = env_int("COMMAND_DEFAULT_TTL_S", 24 * 3600)
 DATA_UPLOAD_MAX_MEMORY_SIZE = env_int("DATA_UPLOAD_MAX_MEMORY_SIZE", 10 * 1024 * 1024)
+
+# The cache holds the API throttles' and the failed logins' counters. `locmem` counts in each
+# process alone, so under N gunicorn workers a limit is up to N times looser; `file` (in the
+# data dir) is shared by the workers of one machine; `database` by several machines (run
+# `manage.py createcachetable` once; it writes on every API request: PostgreSQL, not SQLite).
+_CACHE_BACKENDS = {
+    "locmem": ("django.core.cache.backends.locmem.LocMemCache", "shoreside"),
+    "file": ("django.core.cache.backends.filebased.FileBasedCache", str(DATA_DIR / "cache")),
+    "database": ("django.core.cache.backends.db.DatabaseCache", "shoreside_cache"),
+}
+_cache = os.environ.get("CACHE_BACKEND", "").strip().lower() or "locmem"
+if _cache not in _CACHE_BACKENDS:
+    raise ValueError(f"CACHE_BACKEND={_cache!r} is not one of {', '.join(_CACHE_BACKENDS)}")
+_backend, _location = _CACHE_BACKENDS[_cache]
+CACHES = {"default": {"BACKEND": _backend, "LOCATION": _location}}
+# Failed admin logins per user name and client address before that pair is refused for
+# LOGIN_LOCKOUT_S seconds (operators/login.py).
+LOGIN_FAILURE_LIMIT = env_int("LOGIN_FAILURE_LIMIT", 5)
+LOGIN_LOCKOUT_S = env_int("LOGIN_LOCKOUT_S", 15 * 60)
 
 LOGGING = {
     "version": 1,

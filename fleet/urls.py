@@ -4,32 +4,17 @@ from django.contrib import admin
 from django.urls import include, path
 from drf_spectacular.views import SpectacularAPIView, SpectacularSwaggerView
 from rest_framework.permissions import IsAuthenticated
-from rest_framework.routers import DefaultRouter
 
-from commands.api import boat, operator
-from commands.legacy import LegacyCommandsView, LegacyDataView
-from telemetry.api.views import VesselFixesView
-from vessels.api.views import VesselViewSet
+from commands.api import urls as command_urls
+from telemetry.api import urls as telemetry_urls
 
 admin.site.site_header = "Shoreside"
 admin.site.site_title = "Shoreside"
 admin.site.index_title = "Fleet"
 
-router = DefaultRouter(trailing_slash=True)
-router.include_root_view = False
-router.register("vessels", VesselViewSet, basename="vessel")
-
 api_v1 = [
-    path("boat/telemetry/", boat.TelemetryView.as_view(), name="boat-telemetry"),
-    path("boat/commands/", boat.CommandListView.as_view(), name="boat-commands"),
-    path("boat/commands/<str:uid>/ack/", boat.AckView.as_view(), name="boat-ack"),
-    path("vessels/<slug:slug>/fixes/", VesselFixesView.as_view(), name="vessel-fixes"),
-    path(
-        "vessels/<slug:slug>/commands/",
-        operator.VesselCommandsView.as_view(),
-        name="vessel-commands",
-    ),
-    path("commands/<str:uid>/cancel/", operator.CommandCancelView.as_view(), name="command-cancel"),
+    path("", include(telemetry_urls.urlpatterns)),
+    path("", include(command_urls.urlpatterns)),
     path(
         "schema/", SpectacularAPIView.as_view(permission_classes=[IsAuthenticated]), name="schema"
     ),
@@ -38,13 +23,21 @@ api_v1 = [
         SpectacularSwaggerView.as_view(url_name="schema", permission_classes=[IsAuthenticated]),
         name="api-docs",
     ),
-    path("", include(router.urls)),
+    # Last: the router's vessels/<slug>/ must not shadow the per-vessel paths above.
+    path("", include("vessels.api.urls")),
 ]
 
 urlpatterns = [
     path("admin/", admin.site.urls),
     path("api/v1/", include(api_v1)),
-    path("spab/data.cgi", LegacyDataView.as_view(), name="legacy-data"),
-    path("spab/requestCommands.cgi", LegacyCommandsView.as_view(), name="legacy-commands"),
+    # The thesis' SPAB endpoints, by the paths its client was built with (DESIGN §5).
+    path("spab/", include(telemetry_urls.legacy_urlpatterns)),
+    path("spab/", include(command_urls.legacy_urlpatterns)),
     path("", include("fleet.pages")),
 ]
+
+# JSON (or a telemAck) instead of HTML error pages on the API and boat paths.
+handler400 = "fleet.error_views.bad_request"
+handler403 = "fleet.error_views.permission_denied"
+handler404 = "fleet.error_views.page_not_found"
+handler500 = "fleet.error_views.server_error"

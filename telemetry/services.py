@@ -5,17 +5,22 @@ from __future__ import annotations
 import datetime as dt
 import functools
 import json
+import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from django.conf import settings
-from django.db import connection, transaction
+from django.db import InterfaceError, OperationalError, connection, transaction
 from django.utils import timezone
 
+from telemetry.errors import BatchTooLarge
 from telemetry.models import Fix, SensorChannel
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.models import Vessel
+from vessels.services import vessel_record_fix, vessel_record_fix_statement
+
+logger = logging.getLogger(__name__)
 
 # Rows per INSERT: 9 parameters each stays far below SQLite's 32,766-variable limit.
 INSERT_CHUNK = 1000
@@ -40,6 +45,7 @@ def fix_ingest(
 ) -> IngestResult:
     """Store a batch of telemetry records for ``vessel``.
 
+    0. A batch over FIX_MAX_BATCH records is refused whole (BatchTooLarge), before any work.
     1. Each record is validated on its own; a bad one is reported by index and never costs
        the good ones of the batch.
     2. Records repeating a time already in this batch count as duplicates (first one wins).
@@ -47,6 +53,8 @@ def fix_ingest(
        (a store-and-forward retry) is a counted duplicate, exactly, even when two requests race.
     4. The vessel's last fix moves forward only if this batch holds a newer fix.
     """
+    if len(records) > settings.FIX_MAX_BATCH:
+        raise BatchTooLarge(limit=settings.FIX_MAX_BATCH, got=len(records))
     now = now or timezone.now()
     result = IngestResult()
     parse: Callable[..., FixData] = parse_legacy_fix if legacy else parse_fix
@@ -65,12 +73,37 @@ def fix_ingest(
             result.duplicates += 1
         else:
             fixes[fix.recorded_at] = fix
+    inserted = _store(vessel, fixes, now)
+    result.accepted = len(inserted)
+    result.duplicates += len(fixes) - len(inserted)
+    return result
+
+
+def _store(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) -> list[Any]:
+    """Insert the fixes and advance the vessel's last fix, in one transaction.
+
+    A connection lost before COMMIT (a database restart, a failover) rolled everything back:
+    try once more on a fresh connection. Safe even if it was the COMMIT's answer that was
+    lost, because the insert is idempotent (the retry counts those fixes as duplicates).
+    Inside a caller's transaction there is nothing to retry from: the error goes up.
+    """
+    try:
+        return _store_once(vessel, fixes, now)
+    except (OperationalError, InterfaceError):
+        if connection.in_atomic_block:
+            raise
+        logger.warning("ingest for %s lost its database connection; retrying", vessel.slug)
+        connection.close()
+    return _store_once(vessel, fixes, now)
+
+
+def _store_once(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) -> list[Any]:
+    if connection.vendor == "postgresql" and 0 < len(fixes) <= INSERT_CHUNK:
+        return _store_postgres_in_one_statement(vessel, list(fixes.values()), now)
     with transaction.atomic():
         inserted = _insert_new(vessel.pk, list(fixes.values()), now)
-        result.accepted = len(inserted)
-        result.duplicates += len(fixes) - len(inserted)
         _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
-    return result
+    return inserted
 
 
 FIX_COLUMNS = (
@@ -144,6 +177,15 @@ _PG_RECORD = "t timestamptz, lat float8, lon float8, h float8, s float8, b float
 
 
 def _insert_postgres(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> list[Any]:
+    sql, params = _insert_postgres_statement(vessel_id, now, fixes)
+    with connection.cursor() as cursor:
+        cursor.execute(sql, params)
+        return [r[0] for r in cursor.fetchall()]
+
+
+def _insert_postgres_statement(
+    vessel_id: int, now: dt.datetime, fixes: list[FixData]
+) -> tuple[str, list[Any]]:
     document = json.dumps([
         {"t": f.recorded_at.isoformat(), "lat": f.lat, "lon": f.lon, "h": f.heading_deg,
          "s": f.speed_mps, "b": f.battery_v, "r": f.readings}
@@ -155,9 +197,39 @@ def _insert_postgres(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> 
         + f"FROM jsonb_to_recordset(%s::jsonb) AS u({_PG_RECORD})"
         + _insert_tail()
     )
+    return sql, [vessel_id, now, document]
+
+
+def _store_postgres_in_one_statement(
+    vessel: Vessel, fixes: list[FixData], now: dt.datetime
+) -> list[dt.datetime]:
+    """Insert the fixes and advance the vessel in ONE statement, outside any transaction.
+
+    A single statement is its own transaction on PostgreSQL, so this costs one round trip
+    where BEGIN, INSERT, UPDATE and COMMIT cost four (a legacy client posts one fix per
+    request; the round trips were most of it). The vessel takes the batch's newest fix
+    only if that one was new (the `newest` CTE reads the insert's RETURNING rows); an older
+    new fix of the same batch could not be newer than the vessel's last fix anyway.
+    """
+    newest = max(fixes, key=lambda f: f.recorded_at)
+    insert_sql, insert_params = _insert_postgres_statement(vessel.pk, now, fixes)
+    update_sql, update_params = vessel_record_fix_statement(
+        vessel_id=vessel.pk,
+        seen_at=now,
+        fix_at=newest.recorded_at,
+        summary=fix_summary(newest),
+        also_if="EXISTS (SELECT 1 FROM newest)",
+    )
+    sql = (
+        f"WITH inserted AS ({insert_sql}), "
+        "newest AS (SELECT 1 FROM inserted WHERE recorded_at = %s), "
+        f"vessel AS ({update_sql}) "
+        "SELECT recorded_at FROM inserted"
+    )
+    by_time = {_key(f.recorded_at): f.recorded_at for f in fixes}
     with connection.cursor() as cursor:
-        cursor.execute(sql, [vessel_id, now, document])
-        return [r[0] for r in cursor.fetchall()]
+        cursor.execute(sql, [*insert_params, newest.recorded_at, *update_params])
+        return [by_time[_key(row[0])] for row in cursor.fetchall()]
 
 
 def _key(value: Any) -> dt.datetime:
@@ -170,39 +242,15 @@ def _key(value: Any) -> dt.datetime:
     return dt.datetime.fromisoformat(text).replace(tzinfo=None)
 
 
-@functools.cache
-def _advance_sql(vendor: str) -> str:
-    meta, qn = Vessel._meta, connection.ops.quote_name
-    seen, fix, fix_at = (
-        qn(meta.get_field(n).column) for n in ("last_seen_at", "last_fix", "last_fix_at")
-    )
-    newer = f"({fix_at} IS NULL OR {fix_at} < %s)"
-    return (
-        f"UPDATE {qn(meta.db_table)} SET {seen} = %s, "
-        f"{fix} = CASE WHEN {newer} THEN %s ELSE {fix} END, "
-        f"{fix_at} = CASE WHEN {newer} THEN %s ELSE {fix_at} END "
-        f"WHERE {qn(meta.pk.column)} = %s"
-    )
-
-
 def _advance_last_fix(vessel: Vessel, new: list[FixData], now: dt.datetime) -> None:
-    """Mark the vessel seen now; move its last fix forward only if ``new`` holds a newer one.
-
-    One conditional UPDATE, written once (as the insert is): backlogs arrive oldest first and
-    out of order, so "newer" is decided in the database, under the row lock, not here. The
-    ORM version cost more than the insert itself on a single-fix post (profiled).
-    """
-    meta = Vessel._meta
-    prep_time = meta.get_field("last_fix_at").get_db_prep_save
-    seen = prep_time(now, connection)
+    """Mark the vessel seen now; offer it the newest of ``new`` as its last fix."""
     if not new:
-        Vessel.objects.filter(pk=vessel.pk).update(last_seen_at=now)
+        vessel_record_fix(vessel_id=vessel.pk, seen_at=now)
         return
     newest = max(new, key=lambda f: f.recorded_at)
-    at = prep_time(newest.recorded_at, connection)
-    summary = meta.get_field("last_fix").get_db_prep_save(fix_summary(newest), connection)
-    with connection.cursor() as cursor:
-        cursor.execute(_advance_sql(connection.vendor), [seen, at, summary, at, at, vessel.pk])
+    vessel_record_fix(
+        vessel_id=vessel.pk, seen_at=now, fix_at=newest.recorded_at, summary=fix_summary(newest)
+    )
 
 
 def fix_summary(fix: FixData) -> dict[str, Any]:

@@ -3,16 +3,21 @@ boat A and boat B with their own keys, and a revoked key."""
 
 from __future__ import annotations
 
+import datetime as dt
 from collections.abc import Callable
 from typing import Any
 
 import pytest
 from django.contrib.auth.models import Permission, User
-from rest_framework.authtoken.models import Token
+from django.core.cache import cache
+from django.test import Client
 from rest_framework.test import APIClient
 
 from commands.models import Command
 from commands.services import command_enqueue
+from operators.services import operator_token_issue
+from telemetry.services import fix_ingest
+from tests.support import BASE, iso
 from vessels.models import Vessel
 from vessels.services import vessel_create, vessel_key_issue, vessel_key_revoke
 
@@ -28,6 +33,12 @@ OPERATOR_PERMS = [
 @pytest.fixture(autouse=True)
 def _allowed_hosts(settings: Any) -> None:
     settings.ALLOWED_HOSTS = ["testserver", "localhost", "127.0.0.1"]
+
+
+@pytest.fixture(autouse=True)
+def _fresh_cache() -> None:
+    # Throttle and failed-login counts live in the cache; each test starts from zero.
+    cache.clear()
 
 
 @pytest.fixture(autouse=True)
@@ -94,7 +105,7 @@ def anonymous() -> APIClient:
     return APIClient()
 
 
-def _user(username: str, perms: list[str], *, staff: bool = True) -> User:
+def make_user(username: str, perms: list[str], *, staff: bool = True) -> User:
     user = User.objects.create_user(
         username, f"{username}@example.org", "pw-" + username, is_staff=staff
     )
@@ -109,13 +120,13 @@ def _user(username: str, perms: list[str], *, staff: bool = True) -> User:
 @pytest.fixture
 def operator_user(db: None) -> User:
     """Alice: an operator with the rights to read the fleet and command it."""
-    return _user("alice", OPERATOR_PERMS)
+    return make_user("alice", OPERATOR_PERMS)
 
 
 @pytest.fixture
 def readonly_user(db: None) -> User:
     """Bob: logged in, staff, but without any model permission."""
-    return _user("bob", [])
+    return make_user("bob", [])
 
 
 @pytest.fixture
@@ -137,7 +148,8 @@ def session_operator(operator_user: User) -> APIClient:
 def token_operator(operator_user: User) -> APIClient:
     """Alice through her personal API token."""
     client = APIClient()
-    client.credentials(HTTP_AUTHORIZATION=f"Token {Token.objects.create(user=operator_user).key}")
+    _token, raw = operator_token_issue(user=operator_user, name="alice's script", expires_in=None)
+    client.credentials(HTTP_AUTHORIZATION=f"Token {raw}")
     return client
 
 
@@ -172,3 +184,31 @@ def make_fix() -> Callable[..., dict[str, Any]]:
         return {k: v for k, v in record.items() if v is not ...}
 
     return make
+
+
+@pytest.fixture
+def admin_ui(admin_user: User) -> Client:
+    client = Client()
+    client.force_login(admin_user)
+    return client
+
+
+@pytest.fixture
+def reported(vessel_a: Vessel, make_fix) -> Vessel:
+    fix_ingest(vessel=vessel_a, records=[make_fix(battery_v=12.34)])
+    vessel_a.refresh_from_db()
+    return vessel_a
+
+
+@pytest.fixture
+def track(vessel_a: Vessel) -> list[dt.datetime]:
+    """Ten fixes of vessel A, a minute apart from 08:00, and one of vessel B."""
+    times = [BASE + dt.timedelta(minutes=i) for i in range(10)]
+    fix_ingest(
+        vessel=vessel_a,
+        records=[
+            {"time": iso(t), "lat": -32 + i / 100, "lon": 115.7, "readings": {"t": i, "s": 35.5}}
+            for i, t in enumerate(times)
+        ],
+    )
+    return times

@@ -1,4 +1,7 @@
-"""Vessel, key and mission admin. Every write goes through vessels.services / commands.services."""
+"""Vessel, key and mission admin. Every write goes through vessels.services.
+
+The vessel page's recent fixes and commands and the mission's "send" action join other apps:
+fleet.admin adds them where the admin site is assembled."""
 
 from __future__ import annotations
 
@@ -10,12 +13,8 @@ from django.http import HttpRequest, HttpResponse
 from django.template.response import TemplateResponse
 from django.urls import reverse
 from django.utils import timezone
-from django.utils.html import format_html, format_html_join
+from django.utils.html import format_html
 
-from commands.catalog import CatalogError
-from commands.models import Command, Source
-from commands.services import CommandError, command_enqueue
-from telemetry.models import Fix
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
 from vessels.services import (
     mission_save,
@@ -24,8 +23,6 @@ from vessels.services import (
     vessel_key_revoke,
     vessel_save,
 )
-
-RECENT_ROWS = 15
 
 
 class StatusFilter(admin.SimpleListFilter):
@@ -84,8 +81,7 @@ class VesselAdmin(admin.ModelAdmin):
         "position",
         "battery",
         "issue_key_link",
-        "recent_fixes",
-        "recent_commands",
+        "activity_links",
     ]
     fieldsets = [
         (None, {"fields": ["name", "slug", "kind", "active", "telemetry_period_s", "notes"]}),
@@ -94,7 +90,7 @@ class VesselAdmin(admin.ModelAdmin):
             {"fields": ["status_badge", "last_seen_at", "last_fix_at", "position", "battery"]},
         ),
         ("Keys", {"fields": ["issue_key_link"]}),
-        ("Recent activity", {"fields": ["recent_fixes", "recent_commands"]}),
+        ("Activity", {"fields": ["activity_links"]}),
     ]
 
     def get_fieldsets(self, request: HttpRequest, obj: Vessel | None = None) -> Any:
@@ -129,60 +125,19 @@ class VesselAdmin(admin.ModelAdmin):
         value = vessel.battery_v
         return "–" if value is None else f"{value:.2f}"
 
+    @admin.display(description="fixes and commands")
+    def activity_links(self, vessel: Vessel) -> str:
+        # By URL name only: telemetry and commands sit above vessels, which never imports them.
+        fixes = reverse("admin:telemetry_fix_changelist") + f"?vessel={vessel.pk}"
+        commands = reverse("admin:commands_command_changelist") + f"?vessel__id__exact={vessel.pk}"
+        return format_html(
+            '<a href="{}">All fixes</a> · <a href="{}">All commands</a>', fixes, commands
+        )
+
     @admin.display(description="new key")
     def issue_key_link(self, vessel: Vessel) -> str:
         url = reverse("admin:vessels_vesselkey_add") + f"?vessel={vessel.pk}"
         return format_html('<a class="button" href="{}">Issue a new key</a>', url)
-
-    @admin.display(description="recent fixes")
-    def recent_fixes(self, vessel: Vessel) -> str:
-        fixes = Fix.objects.filter(vessel=vessel).order_by("-recorded_at")[:RECENT_ROWS]
-        rows = format_html_join(
-            "",
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            (  # formatted here: format_html escapes its arguments to strings first
-                (
-                    f.recorded_at.strftime("%Y-%m-%d %H:%M:%S"),
-                    f"{f.lat:.5f}",
-                    f"{f.lon:.5f}",
-                    "–" if f.speed_mps is None else f"{f.speed_mps:.1f}",
-                    "–" if f.battery_v is None else f"{f.battery_v:.2f}",
-                )
-                for f in fixes
-            ),
-        )
-        link = reverse("admin:telemetry_fix_changelist") + f"?vessel={vessel.pk}"
-        return format_html(
-            "<table><tr><th>time (UTC)</th><th>lat</th><th>lon</th><th>speed m/s</th>"
-            '<th>battery V</th></tr>{}</table><a href="{}">All fixes</a>',
-            rows,
-            link,
-        )
-
-    @admin.display(description="recent commands")
-    def recent_commands(self, vessel: Vessel) -> str:
-        commands = Command.objects.filter(vessel=vessel).order_by("-created_at")[:RECENT_ROWS]
-        rows = format_html_join(
-            "",
-            '<tr><td>{}</td><td><a href="{}">{}</a></td><td>{}</td><td>{}</td></tr>',
-            (
-                (
-                    c.created_at.strftime("%Y-%m-%d %H:%M:%S"),
-                    reverse("admin:commands_command_change", args=[c.pk]),
-                    c.kind,
-                    c.status,
-                    c.result_detail[:80],
-                )
-                for c in commands
-            ),
-        )
-        link = reverse("admin:commands_command_add") + f"?vessel={vessel.pk}"
-        return format_html(
-            "<table><tr><th>created (UTC)</th><th>kind</th><th>status</th><th>detail</th></tr>"
-            '{}</table><a class="button" href="{}">Queue a command</a>',
-            rows,
-            link,
-        )
 
 
 @admin.register(VesselKey)
@@ -258,7 +213,6 @@ class MissionAdmin(admin.ModelAdmin):
     list_display = ["name", "vessel", "item_count", "loop", "updated_at"]
     list_filter = ["vessel"]
     inlines = [MissionItemInline]
-    actions = ["send_to_vessel"]
 
     @admin.display(description="waypoints")
     def item_count(self, mission: Mission) -> int:
@@ -282,25 +236,3 @@ class MissionAdmin(admin.ModelAdmin):
     ) -> Any:
         # The item formsets were not saved as formsets (mission_save_items wrote the rows).
         return super().construct_change_message(request, form, [], add)
-
-    def has_send_permission(self, request: HttpRequest) -> bool:
-        return request.user.has_perm("commands.add_command")
-
-    @admin.action(description="Send selected missions to their vessel", permissions=["send"])
-    def send_to_vessel(self, request: HttpRequest, queryset: QuerySet[Mission]) -> None:
-        for mission in queryset:
-            if mission.vessel is None:
-                messages.error(request, f"{mission}: a template has no vessel; copy it to one.")
-                continue
-            try:
-                command = command_enqueue(
-                    vessel=mission.vessel,
-                    kind="mission",
-                    params=mission.as_params(),
-                    source=Source.ADMIN,
-                    created_by=request.user.get_username(),
-                )
-            except (CatalogError, CommandError) as exc:
-                messages.error(request, f"{mission}: {exc}")
-                continue
-            messages.success(request, f"{mission}: queued as command {command.uid}.")

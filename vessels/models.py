@@ -7,7 +7,7 @@ from django.core.validators import MaxValueValidator, MinValueValidator
 from django.db import models
 from django.db.models import Q
 
-from commands.catalog import MAVLINK, WAVE_GLIDER
+from vessels.kinds import MAVLINK, WAVE_GLIDER
 
 # A vessel silent for this many telemetry periods is overdue (DESIGN §3).
 OVERDUE_PERIODS = 3

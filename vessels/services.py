@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import datetime as dt
+import functools
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 from django.conf import settings
-from django.db import transaction
+from django.db import connection, transaction
 from django.db.models import F
 from django.utils import timezone
 
@@ -64,6 +65,65 @@ def vessel_key_touch(*, key: VesselKey, now: dt.datetime) -> None:
     VesselKey.objects.filter(pk=key.pk).update(last_used_at=now)
     Vessel.objects.filter(pk=key.vessel_id).update(last_seen_at=now)
     key.last_used_at = now
+
+
+@functools.cache
+def _record_fix_sql(vendor: str, also_if: str = "") -> str:
+    meta, qn = Vessel._meta, connection.ops.quote_name
+    seen, fix, fix_at = (
+        qn(meta.get_field(n).column) for n in ("last_seen_at", "last_fix", "last_fix_at")
+    )
+    newer = f"({fix_at} IS NULL OR {fix_at} < %s)"
+    if also_if:
+        newer = f"({newer} AND {also_if})"
+    return (
+        f"UPDATE {qn(meta.db_table)} SET {seen} = %s, "
+        f"{fix} = CASE WHEN {newer} THEN %s ELSE {fix} END, "
+        f"{fix_at} = CASE WHEN {newer} THEN %s ELSE {fix_at} END "
+        f"WHERE {qn(meta.pk.column)} = %s"
+    )
+
+
+def vessel_record_fix(
+    *,
+    vessel_id: int,
+    seen_at: dt.datetime,
+    fix_at: dt.datetime | None = None,
+    summary: dict[str, Any] | None = None,
+) -> None:
+    """Mark the vessel seen at ``seen_at``; make ``summary`` its last fix if it is newer.
+
+    One conditional UPDATE, written once: backlogs arrive oldest first and out of order, so
+    "newer" is decided in the database, under the row lock, not here. The ORM version cost
+    more than the fix insert itself on a single-fix post (profiled).
+    """
+    if fix_at is None:
+        Vessel.objects.filter(pk=vessel_id).update(last_seen_at=seen_at)
+        return
+    sql, params = vessel_record_fix_statement(
+        vessel_id=vessel_id, seen_at=seen_at, fix_at=fix_at, summary=summary
+    )
+    with connection.cursor() as cursor:
+        cursor.execute(sql, params)
+
+
+def vessel_record_fix_statement(
+    *,
+    vessel_id: int,
+    seen_at: dt.datetime,
+    fix_at: dt.datetime,
+    summary: dict[str, Any],
+    also_if: str = "",
+) -> tuple[str, list[Any]]:
+    """:func:`vessel_record_fix` as (sql, params), for a caller that runs it as part of one
+    statement of its own (ingest on PostgreSQL: fixes and vessel in one round trip).
+    ``also_if``, a parameterless SQL condition, must hold too for the fix to be taken."""
+    meta = Vessel._meta
+    prep_time = meta.get_field("last_fix_at").get_db_prep_save
+    at = prep_time(fix_at, connection)
+    summary_value = meta.get_field("last_fix").get_db_prep_save(summary, connection)
+    params = [prep_time(seen_at, connection), at, summary_value, at, at, vessel_id]
+    return _record_fix_sql(connection.vendor, also_if), params
 
 
 def vessel_bump_commands_version(*, vessel_id: int) -> None:

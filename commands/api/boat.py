@@ -1,4 +1,4 @@
-"""Boat API v1 (DESIGN §5): telemetry in, commands out, acks in. Thin: services do the work.
+"""Commands out to boats, acks in (DESIGN §5): v1 poll and ack. Thin: services do the work.
 
 The wire shapes are a contract with boats in the field, so these are explicit APIViews that
 build their JSON by hand rather than generic serializers.
@@ -8,27 +8,19 @@ from __future__ import annotations
 
 from typing import Any
 
-from django.conf import settings
 from django.http import HttpResponseNotModified
 from django.utils.http import parse_etags
 from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import OpenApiParameter, extend_schema, inline_serializer
 from rest_framework import serializers, status
-from rest_framework.exceptions import NotFound, ParseError, ValidationError
-from rest_framework.negotiation import DefaultContentNegotiation
-from rest_framework.renderers import JSONRenderer
+from rest_framework.exceptions import ParseError, ValidationError
 from rest_framework.request import Request
 from rest_framework.response import Response
-from rest_framework.views import APIView
 
-from commands.lifecycle import TransitionError
 from commands.models import Command
-from commands.services import CommandError, CommandNotFound, command_ack, command_claim_open
-from fleet.api import Conflict, JSONParser
-from telemetry.services import fix_ingest
-from vessels.auth import VesselKeyAuthentication
+from commands.services import command_ack, command_claim_open
+from vessels.api.boat import BoatView
 from vessels.models import Vessel
-from vessels.permissions import IsBoat
 
 
 def commands_etag(vessel: Vessel) -> str:
@@ -56,61 +48,24 @@ def command_wire(command: Command) -> dict[str, Any]:
     }
 
 
-def records_from_body(data: Any, *, max_batch: int) -> list[Any]:
-    """A list of fixes, or {"fixes": [...]}; anything else is a 400 naming the problem."""
-    if isinstance(data, dict) and "fixes" in data:
-        data = data["fixes"]
-    if not isinstance(data, list):
-        raise ParseError('Expected a JSON list of fixes, or an object {"fixes": [...]}.')
-    if len(data) > max_batch:
-        raise ParseError(f"At most {max_batch} fixes per request (got {len(data)}).")
-    return data
-
-
-class JsonOnly(DefaultContentNegotiation):
-    """The boat API answers JSON whatever the Accept header says (old modem clients send odd
-    ones); parsing Accept on every poll cost more than the poll's own query (profiled)."""
-
-    def select_renderer(
-        self, request: Request, renderers: list[Any], format_suffix: Any = None
-    ) -> tuple[Any, str]:
-        return renderers[0], renderers[0].media_type
-
-
-class BoatView(APIView):
-    authentication_classes = [VesselKeyAuthentication]
-    permission_classes = [IsBoat]
-    parser_classes = [JSONParser]
-    renderer_classes = [JSONRenderer]
-    content_negotiation_class = JsonOnly
-
-    def vessel(self, request: Request) -> Vessel:
-        return request.user.vessel
-
-
-_IngestResult = inline_serializer(
-    "IngestResult",
-    {
-        "accepted": serializers.IntegerField(),
-        "duplicates": serializers.IntegerField(),
-        "rejected": serializers.ListField(child=serializers.DictField()),
+_CommandsOut = inline_serializer(
+    "BoatCommand",
+    many=True,
+    fields={
+        "uid": serializers.UUIDField(),
+        "kind": serializers.CharField(),
+        "params": serializers.DictField(),
+        "created_at": serializers.DateTimeField(),
+        "expires_at": serializers.DateTimeField(allow_null=True),
     },
 )
-
-
-class TelemetryView(BoatView):
-    @extend_schema(request=OpenApiTypes.OBJECT, responses={200: _IngestResult}, tags=["boat"])
-    def post(self, request: Request) -> Response:
-        """Store a batch of fixes. Bad fixes are reported by index; the good ones are kept."""
-        records = records_from_body(request.data, max_batch=settings.FIX_MAX_BATCH)
-        result = fix_ingest(vessel=self.vessel(request), records=records)
-        return Response(result.as_dict())
+_CommandList = inline_serializer("BoatCommandList", {"commands": _CommandsOut})
 
 
 class CommandListView(BoatView):
     @extend_schema(
         parameters=[OpenApiParameter("If-None-Match", str, OpenApiParameter.HEADER)],
-        responses={200: OpenApiTypes.OBJECT, 304: None},
+        responses={200: _CommandList, 304: None},
         tags=["boat"],
     )
     def get(self, request: Request) -> Response | HttpResponseNotModified:
@@ -125,6 +80,16 @@ class CommandListView(BoatView):
             return response
         commands = command_claim_open(vessel=vessel)
         response = Response({"commands": [command_wire(c) for c in commands]})
+        response["ETag"] = etag
+        return response
+
+    @extend_schema(exclude=True)
+    def head(self, request: Request) -> Response | HttpResponseNotModified:
+        """The ETag alone. Django would route HEAD to get(), and a read must never hand a
+        command over: the boat would never see the body, yet the command would be `sent`."""
+        etag = commands_etag(self.vessel(request))
+        matches = etag_matches(request.META.get("HTTP_IF_NONE_MATCH"), etag)
+        response = HttpResponseNotModified() if matches else Response()
         response["ETag"] = etag
         return response
 
@@ -149,14 +114,7 @@ class AckView(BoatView):
         detail = data.get("detail", "")
         if not isinstance(detail, str):
             raise ValidationError({"detail": ["must be a string"]})
-        try:
-            command, _changed = command_ack(
-                vessel=self.vessel(request), uid=uid, status=data.get("status"), detail=detail
-            )
-        except CommandNotFound as exc:
-            raise NotFound(str(exc)) from None
-        except TransitionError as exc:
-            raise Conflict(f"command is {exc.current}; it cannot become {exc.target}") from None
-        except CommandError as exc:
-            raise ValidationError({"status": [str(exc)]}) from None
+        command, _changed = command_ack(
+            vessel=self.vessel(request), uid=uid, status=data.get("status"), detail=detail
+        )
         return Response({"uid": str(command.uid), "status": command.status}, status.HTTP_200_OK)

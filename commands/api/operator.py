@@ -2,23 +2,19 @@
 
 from __future__ import annotations
 
-import uuid
 from typing import Any
 
 from drf_spectacular.utils import extend_schema
 from rest_framework import generics, serializers, status
-from rest_framework.exceptions import NotFound, ValidationError
 from rest_framework.pagination import CursorPagination
 from rest_framework.request import Request
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
-from commands.catalog import CatalogError
-from commands.lifecycle import TransitionError
 from commands.models import Command, CommandEvent, Source
-from commands.services import CommandError, command_cancel, command_enqueue
-from fleet.api import Conflict
-from fleet.permissions import ChangeModelPermissions
+from commands.selectors import command_by_uid
+from commands.services import command_cancel, command_enqueue
+from vessels.permissions import CanViewVessels, ChangeModelPermissions, ModelPermissions
 from vessels.selectors import vessel_by_slug
 
 
@@ -75,6 +71,7 @@ class VesselCommandsView(generics.ListCreateAPIView):
     serializer_class = CommandSerializer
     pagination_class = CommandCursor
     queryset = Command.objects.none()  # for the model permission check
+    permission_classes = [ModelPermissions, CanViewVessels]
 
     def get_queryset(self):  # noqa: ANN201 (DRF hook)
         vessel = vessel_by_slug(self.kwargs["slug"])
@@ -87,20 +84,14 @@ class VesselCommandsView(generics.ListCreateAPIView):
         vessel = vessel_by_slug(self.kwargs["slug"])
         incoming = CommandCreateSerializer(data=request.data)
         incoming.is_valid(raise_exception=True)
-        try:
-            command = command_enqueue(
-                vessel=vessel,
-                kind=incoming.validated_data["kind"],
-                params=incoming.validated_data["params"],
-                source=Source.API,
-                created_by=request.user.get_username(),
-                expires_at=incoming.validated_data.get("expires_at"),
-            )
-        except CatalogError as exc:
-            key = exc.field if exc.field in {"kind"} else "params"
-            raise ValidationError({key: [exc.message]}) from None
-        except CommandError as exc:
-            raise ValidationError({"non_field_errors": [str(exc)]}) from None
+        command = command_enqueue(
+            vessel=vessel,
+            kind=incoming.validated_data["kind"],
+            params=incoming.validated_data["params"],
+            source=Source.API,
+            created_by=request.user.get_username(),
+            expires_at=incoming.validated_data.get("expires_at"),
+        )
         return Response(CommandSerializer(command).data, status=status.HTTP_201_CREATED)
 
 
@@ -111,12 +102,5 @@ class CommandCancelView(APIView):
     @extend_schema(request=None, responses={200: CommandSerializer}, tags=["operator"])
     def post(self, request: Request, uid: str) -> Response:
         """Cancel a queued or sent command."""
-        try:
-            command = Command.objects.get(uid=uuid.UUID(uid))
-        except (ValueError, Command.DoesNotExist):
-            raise NotFound("No such command.") from None
-        try:
-            command_cancel(command=command, actor=request.user.get_username())
-        except TransitionError as exc:
-            raise Conflict(f"command is {exc.current}; it can no longer be cancelled") from None
+        command = command_cancel(command=command_by_uid(uid), actor=request.user.get_username())
         return Response(CommandSerializer(command).data)

@@ -7,7 +7,11 @@ as ``#HOLD``, ``#FSEQ 1 1 4`` losing its last parameter), which the loader makes
 refusing any entry that does not encode every declared parameter.
 
 The table is data (``inner_commands.toml``) so that someone holding LRI's handbook can correct it
-without touching code. Pure: the only file read is the table, through ``importlib.resources``.
+without touching code. It holds only the wire layout: each word must be a Wave Glider kind of the
+command catalog (``commands/catalog.py``, DESIGN.md §4), which gives the parameters' ranges, so
+the SMS parser, the admin and the encoder cannot disagree on them. Pure: the catalog is pure
+Python too (sms sits above commands; neither imports Django here), and the only file read is the
+table, through ``importlib.resources``.
 """
 
 from __future__ import annotations
@@ -15,10 +19,12 @@ from __future__ import annotations
 import struct
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
+
+from commands import catalog
 
 from .bodies import PARAMS_SIZE, CommandPacket, degrees_to_l2
 from .errors import CommandRefused, TableError
@@ -28,9 +34,16 @@ SOURCED = "sourced"
 PROVISIONAL = "provisional"
 UNKNOWN = "unknown"  # a choice whose command value nobody has published
 _FIELD_FORMATS = {"u8": "<B", "i8": "<b", "u16": "<H", "i16": "<h"}
-_PARAM_TYPES = {"int", "choice", "lat", "lon", "int_list"}
-LAT_LIMIT = 90.0
-LON_LIMIT = 180.0
+# Table parameter type → the catalog parameter kind it carries.
+_PARAM_TYPES = {
+    "int": "int",
+    "choice": "choice",
+    "lat": "float",
+    "lon": "float",
+    "int_list": "indices",
+}
+# Rules are the catalog's; an entry giving its own is refused rather than silently ignored.
+_CATALOG_KEYS = {"min", "max", "min_count"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,10 +59,10 @@ class InnerSettings:
 class ParamSpec:
     name: str
     type: str
-    min: int | None = None
-    max: int | None = None
+    min: float | None = None  # from the catalog
+    max: float | None = None  # from the catalog
     choices: Mapping[str, int | None] = field(default_factory=dict)
-    min_count: int = 1
+    min_count: int = 1  # the catalog's lists of indices are never empty
     max_count: int = PARAMS_SIZE
 
 
@@ -181,9 +194,9 @@ class InnerCommandTable:
         lat = lon = 0
         for p in spec.params:
             if p.type == "lat":
-                lat = degrees_to_l2(values[p.name], limit=LAT_LIMIT)
+                lat = degrees_to_l2(values[p.name], limit=_limit(p))
             elif p.type == "lon":
-                lon = degrees_to_l2(values[p.name], limit=LON_LIMIT)
+                lon = degrees_to_l2(values[p.name], limit=_limit(p))
         for f in spec.fields:
             _place(spec, f, values[f.source], params)
         packet = CommandPacket(
@@ -199,11 +212,22 @@ class InnerCommandTable:
 
 
 def _load_entry(word: str, entry: Mapping[str, Any]) -> CommandSpec:
-    """Build and check one entry; every inconsistency is a TableError naming the word."""
+    """Build and check one entry; every inconsistency is a TableError naming the word.
+
+    1. Read the entry's wire layout (status, source, params, fields, fixed bytes, value).
+    2. Check its structure (:func:`_check_entry`).
+    3. Match it to the catalog's command of the same name and take the ranges from there.
+    """
 
     def fail(reason: str) -> TableError:
         return TableError(f"inner command table, [commands.{word}]: {reason}")
 
+    spec = _read_entry(word, entry, fail)
+    _check_entry(spec, fail)
+    return _with_catalog_rules(spec, fail)
+
+
+def _read_entry(word: str, entry: Mapping[str, Any], fail: Any) -> CommandSpec:
     status = entry.get("status")
     if status not in (SOURCED, PROVISIONAL):
         raise fail(f'status must be "{SOURCED}" or "{PROVISIONAL}", not {status!r}')
@@ -218,7 +242,7 @@ def _load_entry(word: str, entry: Mapping[str, Any]) -> CommandSpec:
         fixed = bytes.fromhex(entry.get("fixed", "00" * PARAMS_SIZE))
     except (KeyError, TypeError, ValueError) as exc:
         raise fail(f"malformed params/fields/fixed: {exc}") from exc
-    spec = CommandSpec(
+    return CommandSpec(
         word=word,
         status=status,
         enabled=bool(entry.get("enabled", status == SOURCED)),
@@ -230,13 +254,17 @@ def _load_entry(word: str, entry: Mapping[str, Any]) -> CommandSpec:
         value_by_sign=entry.get("value_by_sign"),
         fixed=fixed,
     )
-    _check_entry(spec, fail)
-    return spec
 
 
 def _param(raw: Mapping[str, Any]) -> ParamSpec:
     if raw["type"] not in _PARAM_TYPES:
         raise ValueError(f"unknown parameter type {raw['type']!r}")
+    ruled = sorted(_CATALOG_KEYS & set(raw))
+    if ruled:
+        raise ValueError(
+            f"{raw['name']!r} gives {ruled}: ranges come from the command catalog "
+            "(commands/catalog.py), the table holds only the wire layout"
+        )
     # A choice value that is not an integer ("unknown") is a command value nobody published.
     choices = {
         str(k).lower(): v if isinstance(v, int) else None for k, v in raw.get("choices", {}).items()
@@ -244,30 +272,41 @@ def _param(raw: Mapping[str, Any]) -> ParamSpec:
     return ParamSpec(
         raw["name"],
         raw["type"],
-        raw.get("min"),
-        raw.get("max"),
-        choices,
-        raw.get("min_count", 1),
-        raw.get("max_count", PARAMS_SIZE),
+        choices=choices,
+        max_count=raw.get("max_count", PARAMS_SIZE),
     )
 
 
 def _check_entry(spec: CommandSpec, fail: Any) -> None:
     """Structural rules: one value source, every parameter encoded, fields inside 5 bytes."""
-    names = {p.name for p in spec.params}
+    _check_value_source(spec, fail)
+    if len(spec.fixed) != PARAMS_SIZE:
+        raise fail(f"fixed must be {PARAMS_SIZE} bytes")
+    encoded = _check_fields(spec, fail) | _value_params(spec)
+    encoded |= {p.name for p in spec.params if p.type in ("lat", "lon")}
+    missing = {p.name for p in spec.params} - encoded
+    if missing:
+        # The thesis' #FSEQ failure: a parameter that is accepted but never sent.
+        raise fail(f"parameters {sorted(missing)} are declared but never encoded")
+
+
+def _check_value_source(spec: CommandSpec, fail: Any) -> None:
+    """Exactly one way to the command value at most; a known one if the entry is to be sent."""
     ways = [spec.value is not None, spec.value_from is not None, spec.value_by_sign is not None]
     if sum(ways) > 1:
         raise fail("give only one of value, value_from, value_by_sign")
-    known_value = _value_known(spec)
-    if spec.enabled and spec.status == PROVISIONAL and not known_value:
+    if spec.enabled and spec.status == PROVISIONAL and not _value_known(spec):
         raise fail("cannot be enabled: its command value is unknown")
-    if len(spec.fixed) != PARAMS_SIZE:
-        raise fail(f"fixed must be {PARAMS_SIZE} bytes")
-    used: set[str] = set()
-    if spec.value_from:
-        used.add(spec.value_from)
-    if spec.value_by_sign:
-        used.add(spec.value_by_sign.get("from", ""))
+    if spec.value_from and spec.value_from not in {p.name for p in spec.params if p.choices}:
+        raise fail("value_from must name a choice parameter")
+
+
+def _check_fields(spec: CommandSpec, fail: Any) -> set[str]:
+    """Each field has a known type, takes a declared parameter and its own bytes of the 5.
+
+    Returns the names of the parameters the fields encode.
+    """
+    names = {p.name for p in spec.params}
     occupied: set[int] = set()
     for f in spec.fields:
         if f.type != "u8list" and f.type not in _FIELD_FORMATS:
@@ -279,14 +318,42 @@ def _check_entry(spec: CommandSpec, fail: Any) -> None:
         if f.at < 0 or end > PARAMS_SIZE or span & occupied:
             raise fail(f"field for {f.source!r} overlaps another or leaves the 5 parameter bytes")
         occupied |= span
-        used.add(f.source)
-    used |= {p.name for p in spec.params if p.type in ("lat", "lon")}
-    missing = names - used
-    if missing:
-        # The thesis' #FSEQ failure: a parameter that is accepted but never sent.
-        raise fail(f"parameters {sorted(missing)} are declared but never encoded")
-    if spec.value_from and spec.value_from not in {p.name for p in spec.params if p.choices}:
-        raise fail("value_from must name a choice parameter")
+    return {f.source for f in spec.fields}
+
+
+def _value_params(spec: CommandSpec) -> set[str]:
+    """The parameters that choose the command value (and so are encoded by it)."""
+    used = {spec.value_from} if spec.value_from else set()
+    if spec.value_by_sign:
+        used.add(spec.value_by_sign.get("from", ""))
+    return used
+
+
+def _with_catalog_rules(spec: CommandSpec, fail: Any) -> CommandSpec:
+    """The entry with each parameter's range from the catalog's Wave Glider command.
+
+    The word must be a catalog kind for Wave Gliders, with the same parameters in the same
+    order, of a matching type and, for choices, the same choice names.
+    """
+    try:
+        kind = catalog.get_kind(spec.word)
+    except catalog.CatalogError:
+        raise fail("not a command of the catalog (commands/catalog.py)") from None
+    if catalog.WAVE_GLIDER not in kind.vessel_kinds:
+        raise fail("the catalog does not offer it to Wave Gliders")
+    if [p.name for p in spec.params] != [p.name for p in kind.params]:
+        raise fail(f"parameters must be the catalog's: {[p.name for p in kind.params]}")
+    return replace(spec, params=tuple(_ruled(p, kind.param(p.name), fail) for p in spec.params))
+
+
+def _ruled(p: ParamSpec, rule: catalog.Param, fail: Any) -> ParamSpec:
+    if _PARAM_TYPES[p.type] != rule.kind:
+        raise fail(f"{p.name} is {rule.kind!r} in the catalog but {p.type!r} in the table")
+    if p.choices and set(p.choices) != {c.lower() for c in rule.choices}:
+        raise fail(f"{p.name} choices must be the catalog's: {'/'.join(rule.choices)}")
+    if p.type in ("lat", "lon") and (rule.maximum is None or rule.minimum != -rule.maximum):
+        raise fail(f"{p.name}: a coordinate needs a symmetric range in the catalog")
+    return replace(p, min=rule.minimum, max=rule.maximum)
 
 
 def _value_known(spec: CommandSpec) -> bool:
@@ -347,9 +414,8 @@ def _convert(word: str, p: ParamSpec, raw: Any) -> Any:
             return key
         if p.type in ("lat", "lon"):
             value = float(raw)
-            limit = LAT_LIMIT if p.type == "lat" else LON_LIMIT
-            if not -limit <= value <= limit:
-                raise CommandRefused(word, f"{p.name} must be within ±{limit:g} degrees")
+            if not -_limit(p) <= value <= _limit(p):
+                raise CommandRefused(word, f"{p.name} must be within ±{_limit(p):g} degrees")
             return value
         # int_list
         items = [raw] if isinstance(raw, str | int) else list(raw)
@@ -369,8 +435,17 @@ def _int_in_range(word: str, p: ParamSpec, raw: Any) -> int:
         raise ValueError("not an integer")
     value = int(raw)
     if (p.min is not None and value < p.min) or (p.max is not None and value > p.max):
-        raise CommandRefused(word, f"{p.name} must be {p.min}–{p.max}, got {value}")
+        raise CommandRefused(word, f"{p.name} must be {_fmt(p.min)}–{_fmt(p.max)}, got {value}")
     return value
+
+
+def _fmt(limit: float | None) -> str:
+    return "…" if limit is None else f"{limit:g}"
+
+
+def _limit(p: ParamSpec) -> float:
+    """The catalog's range of a latitude or longitude, ±90 or ±180 (symmetric: see _ruled)."""
+    return float(p.max or 0.0)
 
 
 def _command_value(spec: CommandSpec, values: Mapping[str, Any]) -> int:

@@ -8,7 +8,8 @@ from collections.abc import Iterator
 from typing import Any
 
 from django.http import StreamingHttpResponse
-from drf_spectacular.utils import OpenApiParameter, extend_schema
+from drf_spectacular.types import OpenApiTypes
+from drf_spectacular.utils import OpenApiParameter, OpenApiResponse, extend_schema
 from rest_framework import serializers
 from rest_framework.exceptions import ValidationError
 from rest_framework.generics import ListAPIView
@@ -18,6 +19,7 @@ from rest_framework.request import Request
 from telemetry.models import Fix
 from telemetry.parsing import parse_time
 from telemetry.selectors import fixes_in_range
+from vessels.permissions import CanViewVessels, ModelPermissions
 from vessels.selectors import vessel_by_slug
 
 CSV_COLUMNS = ["recorded_at", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings"]
@@ -100,6 +102,12 @@ def _csv_rows(fixes: Any) -> Iterator[str]:
         OpenApiParameter("to", str, description="ISO 8601 or Unix seconds (exclusive)"),
         OpenApiParameter("format", str, enum=["json", "csv"]),
     ],
+    responses={
+        (200, "application/json"): FixSerializer(many=True),
+        (200, "text/csv"): OpenApiResponse(
+            OpenApiTypes.STR, description=f"`?format=csv`: columns {', '.join(CSV_COLUMNS)}"
+        ),
+    },
     tags=["operator"],
 )
 class VesselFixesView(ListAPIView):
@@ -108,6 +116,7 @@ class VesselFixesView(ListAPIView):
     serializer_class = FixSerializer
     pagination_class = FixCursor
     queryset = Fix.objects.none()  # for the model permission check
+    permission_classes = [ModelPermissions, CanViewVessels]
 
     def get_queryset(self):  # noqa: ANN201 (DRF hook)
         return fixes_in_range(

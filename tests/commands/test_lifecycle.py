@@ -40,7 +40,10 @@ def test_it_allows_exactly_the_design_transitions(current: Status, target: Statu
         with pytest.raises(TransitionError) as err:
             check_transition(current, target)
         assert (err.value.current, err.value.target) == (current, target)
-        assert str(err.value) == f"cannot go from {current} to {target}"
+        if target == Status.CANCELLED:
+            assert str(err.value) == f"command is {current}; it can no longer be cancelled"
+        else:
+            assert str(err.value) == f"command is {current}; it cannot become {target}"
 
 
 def test_it_has_a_row_for_every_status_and_no_way_out_of_a_final_one() -> None:

@@ -11,7 +11,7 @@ import pytest
 from edge_client.config import CommandsConfig, MavlinkConfig
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Outbox
-from tests.sim import RoverSim
+from edge_client.sim import RoverSim
 
 FAST_SIM = {"speed_mps": 100.0, "rate_hz": 10.0, "prearm_delay_s": 0.5}
 

@@ -327,7 +327,7 @@ def test_a_newer_navigation_command_replaces_the_active_one(
 
 WAYPOINTS = [
     {"lat": -31.9795, "lon": 115.8205, "hold_s": 0, "radius_m": 3},
-    {"lat": -31.9790, "lon": 115.8200, "hold_s": 0.5, "radius_m": 0},
+    {"lat": -31.9790, "lon": 115.8200, "hold_s": 0.5, "radius_m": None},
     {"lat": -31.9795, "lon": 115.8195, "hold_s": 0, "radius_m": 2},
 ]
 

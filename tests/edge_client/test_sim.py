@@ -12,7 +12,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
-from tests.edge_client.helpers import ROOT  # noqa: E402
+from tests.edge_client.helpers import ROOT, wait_until  # noqa: E402
 
 m = mavutil.mavlink
 
@@ -96,7 +96,8 @@ def test_prearm_checks_pass_only_after_the_delay(gcs):
     conn.mav.command_long_send(1, 1, m.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     assert "PreArm" in expect("STATUSTEXT").text  # the reason comes first, as from ArduPilot
     assert expect("COMMAND_ACK").result == m.MAV_RESULT_FAILED
-    time.sleep(1.6)
+    # Wait on the simulator's own clock, not a sleep racing its deadline.
+    wait_until(lambda: time.monotonic() - sim.boot >= sim.prearm_delay_s, 10, "pre-arm delay")
     conn.mav.command_long_send(1, 1, m.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
     assert sim.armed
@@ -183,7 +184,26 @@ def test_refused_modes_are_denied(gcs):
     assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED and sim.mode_name == "GUIDED"
 
 
+@pytest.mark.parametrize(("mode", "number"), [("DOCK", 8), ("CIRCLE", 9)])
+def test_every_rover_mode_can_be_entered(gcs, mode, number):
+    sim, conn, expect = gcs()
+    conn.mav.command_long_send(1, 1, m.MAV_CMD_DO_SET_MODE, 0, 1, number, 0, 0, 0, 0, 0)
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED and sim.mode_name == mode
+
+
+def test_the_simulator_needs_only_pymavlink_and_the_standard_library():
+    code = (
+        "import sys, edge_client.sim, edge_client.sim.__main__;"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'django', 'requests', 'serial',"
+        " 'commands', 'vessels', 'telemetry', 'fleet', 'sms', 'tests'}))"
+    )
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                            text=True, timeout=60)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "[]"
+
+
 def test_the_command_line_help_runs():
-    result = subprocess.run([sys.executable, "-m", "tests.sim", "--help"], cwd=ROOT,
+    result = subprocess.run([sys.executable, "-m", "edge_client.sim", "--help"], cwd=ROOT,
                             capture_output=True, text=True, timeout=60)  # fmt: skip
     assert result.returncode == 0 and "--reject-mission" in result.stdout

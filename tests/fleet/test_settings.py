@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -14,7 +15,7 @@ from django.core import checks as django_checks
 from django.core.management import call_command
 
 from fleet.checks import check_production_safety
-from fleet.settings import database_from_url, env_bool, env_int, env_list
+from fleet.settings import database_from_url, env_bool, env_int, env_list, env_rate
 
 ROOT = Path(__file__).resolve().parents[2]
 LONG_KEY = "k" * 50
@@ -268,7 +269,7 @@ def test_sqlite_urls_read_like_dj_database_url() -> None:
 
 
 def test_the_generated_secret_key_file_is_private_from_the_start(tmp_path) -> None:
-    from fleet.settings import write_private
+    from fleet.files import write_private
 
     path = tmp_path / "secret_key"
     write_private(path, "s3cret")
@@ -280,3 +281,101 @@ def test_legacy_endpoints_stay_on_plain_http_under_the_https_redirect(client, se
     settings.SECURE_SSL_REDIRECT = True
     assert client.get("/admin/login/").status_code == 301
     assert client.get("/spab/requestCommands.cgi").status_code == 401  # answered, not redirected
+
+
+def test_production_with_debug_refuses_to_start(tmp_path: Path) -> None:
+    # fleet.E003 alone is not enough: gunicorn runs no system checks.
+    result = _import_settings(
+        tmp_path, PRODUCTION="1", DEBUG="1", SECRET_KEY=LONG_KEY, ALLOWED_HOSTS="shore.example"
+    )
+    assert result.returncode != 0
+    assert "ImproperlyConfigured" in result.stderr
+    assert "DEBUG=1 and PRODUCTION=1 together" in result.stderr
+
+
+def test_the_sqlite_database_and_data_folder_are_private(tmp_path: Path) -> None:
+    # A fresh data dir, migrated under the usual umask 022, then a connection held open so
+    # SQLite's -wal and -shm files exist while their modes are read.
+    data = tmp_path / "data"
+    env = {k: v for k, v in os.environ.items() if k not in {"DATABASE_URL", "SECRET_KEY"}}
+    env.update(SHORESIDE_DATA_DIR=str(data), PRODUCTION="0", DEBUG="0")
+    umask = {"preexec_fn": lambda: os.umask(0o022)}
+    migrate = subprocess.run(
+        [sys.executable, "manage.py", "migrate", "--verbosity", "0"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=120, **umask,
+    )  # fmt: skip
+    assert migrate.returncode == 0, migrate.stderr
+    show_modes = (
+        "from django.db import connection; import os, stat\n"
+        "connection.cursor().execute('SELECT count(*) FROM django_migrations')\n"
+        "for name in sorted(os.listdir(os.environ['SHORESIDE_DATA_DIR'])):\n"
+        "    path = os.path.join(os.environ['SHORESIDE_DATA_DIR'], name)\n"
+        "    if os.path.isfile(path):\n"
+        "        print('mode', name, oct(stat.S_IMODE(os.stat(path).st_mode)))\n"
+    )
+    held = subprocess.run(
+        [sys.executable, "manage.py", "shell", "-c", show_modes],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=120, **umask,
+    )  # fmt: skip
+    assert held.returncode == 0, held.stderr
+    modes = dict(line.split()[1:] for line in held.stdout.splitlines() if line.startswith("mode "))
+    assert set(modes) >= {
+        "secret_key",
+        "shoreside.sqlite3",
+        "shoreside.sqlite3-wal",
+        "shoreside.sqlite3-shm",
+    }
+    assert set(modes.values()) == {"0o600"}, modes
+    assert oct(stat.S_IMODE(data.stat().st_mode)) == "0o700"
+
+
+@pytest.mark.parametrize(
+    ("raw", "rate"),
+    [("600/min", "600/min"), (" 20/S ", "20/s"), ("5000/day", "5000/day"), ("off", None)],
+)
+def test_env_rate_reads_rates(monkeypatch: pytest.MonkeyPatch, raw: str, rate: str | None) -> None:
+    monkeypatch.setenv("X_RATE", raw)
+    assert env_rate("X_RATE", "1/s") == rate
+
+
+@pytest.mark.parametrize("raw", ["600", "600/minutes", "10/fortnight", "-1/s", "1.5/s", "none"])
+def test_env_rate_refuses_anything_else(monkeypatch: pytest.MonkeyPatch, raw: str) -> None:
+    monkeypatch.setenv("X_RATE", raw)
+    with pytest.raises(ValueError, match=r"X_RATE=.* is not a rate"):
+        env_rate("X_RATE", "1/s")
+
+
+def _settings_value(tmp_path: Path, expr: str, **env: str) -> subprocess.CompletedProcess[str]:
+    clean = {k: v for k, v in os.environ.items() if k not in {"CACHE_BACKEND", "PRODUCTION"}}
+    clean.update(SHORESIDE_DATA_DIR=str(tmp_path / "data"), **env)
+    return subprocess.run(
+        [sys.executable, "-c", f"import fleet.settings as s; print({expr})"],
+        cwd=ROOT, env=clean, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("backend", "expected"),
+    [("", "LocMemCache"), ("file", "FileBasedCache"), ("database", "DatabaseCache")],
+)
+def test_the_cache_backend_comes_from_the_environment(
+    tmp_path: Path, backend: str, expected: str
+) -> None:
+    result = _settings_value(tmp_path, "s.CACHES['default']['BACKEND']", CACHE_BACKEND=backend)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip().endswith(expected)
+
+
+def test_an_unknown_cache_backend_stops_the_settings_import(tmp_path: Path) -> None:
+    result = _settings_value(tmp_path, "s.CACHES", CACHE_BACKEND="redis")
+    assert result.returncode != 0
+    assert "CACHE_BACKEND='redis' is not one of locmem, file, database" in result.stderr
+
+
+def test_throttle_rates_come_from_the_environment(tmp_path: Path) -> None:
+    rates = "s.REST_FRAMEWORK['DEFAULT_THROTTLE_RATES']"
+    result = _settings_value(
+        tmp_path, rates, THROTTLE_BOAT_RATE="5/s", THROTTLE_OPERATOR_RATE="off"
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "{'boat': '5/s', 'operator': None}"

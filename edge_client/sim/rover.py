@@ -44,14 +44,16 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil  # noqa: E402
 
+from edge_client.geo import bearing_deg, distance_m, offset  # noqa: E402 (stdlib-only module)
+
 mavlink = mavutil.mavlink
 
 MODES = {
     "MANUAL": 0, "ACRO": 1, "STEERING": 3, "HOLD": 4, "LOITER": 5, "FOLLOW": 6, "SIMPLE": 7,
-    "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15, "INITIALISING": 16,
+    "DOCK": 8, "CIRCLE": 9, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15,
+    "INITIALISING": 16,
 }  # fmt: skip
 MODE_NAMES = {v: k for k, v in MODES.items()}
-EARTH_RADIUS_M = 6_371_000.0
 UPLOAD_RETRY_S = 0.5
 UPLOAD_GIVE_UP_S = 8.0
 GLOBAL_FRAMES = {0, 3, 5, 6, 10, 11}  # MAV_FRAME_GLOBAL*, incl. the deprecated _INT variants
@@ -85,15 +87,6 @@ class Item:
     x: int  # degE7
     y: int
     z: float
-
-
-def _bearing_distance(lat1: float, lon1: float, lat2: float, lon2: float) -> tuple[float, float]:
-    p1, p2, dl = math.radians(lat1), math.radians(lat2), math.radians(lon2 - lon1)
-    a = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
-    dist = 2 * EARTH_RADIUS_M * math.asin(math.sqrt(min(1.0, a)))
-    y = math.sin(dl) * math.cos(p2)
-    x = math.cos(p1) * math.sin(p2) - math.sin(p1) * math.cos(p2) * math.cos(dl)
-    return math.degrees(math.atan2(y, x)) % 360, dist
 
 
 class RoverSim:
@@ -334,7 +327,8 @@ class RoverSim:
 
     def _drive_to(self, lat: float, lon: float, dt: float) -> float:
         """Move toward (lat, lon) for dt seconds; returns the distance left."""
-        bearing, dist = _bearing_distance(self.lat, self.lon, lat, lon)
+        bearing = bearing_deg(self.lat, self.lon, lat, lon)
+        dist = distance_m(self.lat, self.lon, lat, lon)
         step = self.speed * dt
         if dist < 0.01:
             self.vn = self.ve = 0.0
@@ -345,10 +339,7 @@ class RoverSim:
             self.vn = self.ve = 0.0
             return 0.0
         b = math.radians(bearing)
-        self.lat += math.degrees(step * math.cos(b) / EARTH_RADIUS_M)
-        self.lon += math.degrees(
-            step * math.sin(b) / (EARTH_RADIUS_M * math.cos(math.radians(self.lat)))
-        )
+        self.lat, self.lon = offset(self.lat, self.lon, bearing, step)
         self.vn, self.ve = self.speed * math.cos(b), self.speed * math.sin(b)
         return dist - step
 

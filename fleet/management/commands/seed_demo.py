@@ -16,12 +16,12 @@ from django.utils import timezone
 
 from commands.models import Source
 from commands.services import command_ack, command_claim_open, command_enqueue
-from fleet.settings import write_private
+from fleet.demo_track import SimBoat, patrol_route
+from fleet.files import write_private
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from vessels.models import Mission, Vessel
 from vessels.services import mission_save, mission_save_items, vessel_create, vessel_key_issue
-from vessels.simulation import SimBoat, patrol_route
 
 OPERATOR_GROUP = "Operators"
 OPERATOR_PERMS = {

@@ -1,4 +1,4 @@
-"""Run the simulated Rover: ``python -m tests.sim --listen udpin:127.0.0.1:14550``.
+"""Run the simulated Rover: ``python -m edge_client.sim --listen udpin:127.0.0.1:14550``.
 
 Then, in another terminal, point the edge client at it::
 
@@ -15,11 +15,13 @@ import sys
 import threading
 import time
 
-from tests.sim.rover import MODES, RoverSim
+from edge_client.sim.rover import MODES, RoverSim
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m tests.sim", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(
+        prog="python -m edge_client.sim", description=__doc__.splitlines()[0]
+    )
     p.add_argument(
         "--listen",
         action="append",

@@ -1,0 +1,100 @@
+"""Telemetry in from boats: v1 `POST /api/v1/boat/telemetry/` and the thesis' `data.cgi`.
+
+The wire shapes are a contract with boats in the field (DESIGN §5), so these are explicit
+APIViews that build their JSON by hand; :func:`telemetry.services.fix_ingest` does the work.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from drf_spectacular.utils import extend_schema, extend_schema_field, inline_serializer
+from rest_framework import serializers, status
+from rest_framework.exceptions import ParseError
+from rest_framework.request import Request
+from rest_framework.response import Response
+
+from telemetry.api.parsers import LegacyTelemetryJSONParser, TelemetryJSONParser
+from telemetry.services import fix_ingest
+from vessels.api.boat import BoatView, LegacyBoatView, telem_ack
+
+
+def records_from_body(data: Any) -> list[Any]:
+    """A list of fixes, or {"fixes": [...]}; anything else is a 400 naming the problem."""
+    if isinstance(data, dict) and "fixes" in data:
+        data = data["fixes"]
+    if not isinstance(data, list):
+        raise ParseError('Expected a JSON list of fixes, or an object {"fixes": [...]}.')
+    return data
+
+
+@extend_schema_field({"oneOf": [{"type": "string", "format": "date-time"}, {"type": "number"}]})
+class FixTime(serializers.Field):
+    """ISO 8601 with a UTC offset, or Unix seconds."""
+
+
+class FixIn(serializers.Serializer):
+    """The wire shape of one fix, for the schema only: telemetry.parsing validates, so that
+    one bad fix is reported by index instead of failing the batch."""
+
+    time = FixTime(help_text="ISO 8601 with a UTC offset, or Unix seconds")
+    lat = serializers.FloatField(min_value=-90, max_value=90)
+    lon = serializers.FloatField(min_value=-180, max_value=180)
+    heading_deg = serializers.FloatField(required=False, min_value=0, max_value=360)
+    speed_mps = serializers.FloatField(required=False, min_value=0, max_value=1000)
+    battery_v = serializers.FloatField(required=False)
+    readings = serializers.DictField(
+        child=serializers.FloatField(), required=False, help_text="name: number, up to 64"
+    )
+
+
+_Batch = inline_serializer("TelemetryBatch", {"fixes": FixIn(many=True)})
+
+_IngestResult = inline_serializer(
+    "IngestResult",
+    {
+        "accepted": serializers.IntegerField(),
+        "duplicates": serializers.IntegerField(),
+        "rejected": serializers.ListField(child=serializers.DictField()),
+    },
+)
+
+
+class TelemetryView(BoatView):
+    parser_classes = [TelemetryJSONParser]
+
+    @extend_schema(request=_Batch, responses={200: _IngestResult}, tags=["boat"])
+    def post(self, request: Request) -> Response:
+        """Store a batch of fixes (`{"fixes": [...]}`, or the bare list). Bad fixes are
+        reported by index; the good ones are kept; re-sent fixes count as duplicates."""
+        result = fix_ingest(vessel=self.vessel(request), records=records_from_body(request.data))
+        return Response(result.as_dict())
+
+
+@extend_schema(exclude=True)
+class LegacyDataView(LegacyBoatView):
+    """`POST /spab/data.cgi`: Listing 1 records (one object or a list) → `telemAck`."""
+
+    parser_classes = [LegacyTelemetryJSONParser]
+
+    def post(self, request: Request) -> Response:
+        data = request.data
+        records = [data] if isinstance(data, dict) else data
+        if not isinstance(records, list):
+            return Response(
+                telem_ack(False, "expected a JSON object or a list of objects"),
+                status=status.HTTP_400_BAD_REQUEST,
+            )
+        result = fix_ingest(vessel=self.vessel(request), records=records, legacy=True)
+        message = (
+            f"accepted {result.accepted}, duplicates {result.duplicates}, "
+            f"rejected {len(result.rejected)}"
+        )
+        for rejected in result.rejected:
+            fields = ", ".join(f"{k} {v}" for k, v in rejected["errors"].items())
+            message += f"; record {rejected['index']}: {fields}"
+        ok = not result.rejected
+        return Response(
+            telem_ack(ok, message),
+            status=200 if ok or result.accepted or result.duplicates else 400,
+        )

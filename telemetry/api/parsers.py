@@ -1,0 +1,44 @@
+"""JSON for telemetry bodies, where one odd number must cost only its own fix (DESIGN §5).
+
+Standard JSON has no NaN or Infinity, and Python refuses integers past 4,300 digits: DRF's
+strict parser turned either into a 400 for the whole batch. Here they parse as non-finite
+floats, which fix validation rejects like any other bad value, by index.
+"""
+
+from __future__ import annotations
+
+import codecs
+import json
+from typing import Any
+
+from django.conf import settings
+from rest_framework.exceptions import ParseError
+
+from vessels.api.parsers import JSONParser
+
+# Past ~309 digits an integer is beyond a float's range anyway: no coordinate, no reading.
+MAX_INT_DIGITS = 400
+
+
+def _integer(text: str) -> int | float:
+    return int(text) if len(text) <= MAX_INT_DIGITS else float(text)
+
+
+class TelemetryJSONParser(JSONParser):
+    def parse(self, stream: Any, media_type: str | None = None, parser_context: Any = None) -> Any:
+        encoding = (parser_context or {}).get("encoding", settings.DEFAULT_CHARSET)
+        try:
+            text = codecs.getreader(encoding)(stream).read()
+            # parse_constant: NaN, Infinity and -Infinity become the floats of those names.
+            return json.loads(text, parse_constant=float, parse_int=_integer)
+        except RecursionError:
+            raise ParseError("JSON parse error - nested too deeply") from None
+        except ValueError as exc:  # includes UnicodeDecodeError
+            raise ParseError(f"JSON parse error - {exc}") from None
+
+
+class LegacyTelemetryJSONParser(TelemetryJSONParser):
+    """The thesis' CGI read the body as JSON whatever the Content-Type said (or if there was
+    none): old clients send none, text/plain or a form type, and must not lose telemetry."""
+
+    media_type = "*/*"

@@ -1,0 +1,16 @@
+"""Telemetry endpoints: the boat's v1 telemetry and fix reads under /api/v1/; data.cgi under
+/spab/ (``legacy_urlpatterns``)."""
+
+from __future__ import annotations
+
+from django.urls import path
+
+from telemetry.api.boat import LegacyDataView, TelemetryView
+from telemetry.api.views import VesselFixesView
+
+urlpatterns = [
+    path("boat/telemetry/", TelemetryView.as_view(), name="boat-telemetry"),
+    path("vessels/<slug:slug>/fixes/", VesselFixesView.as_view(), name="vessel-fixes"),
+]
+
+legacy_urlpatterns = [path("data.cgi", LegacyDataView.as_view(), name="legacy-data")]

@@ -1,0 +1,144 @@
+"""The command admin: the catalog-built form, the cancel action, the read-only history."""
+
+from __future__ import annotations
+
+import pytest
+from django.contrib.auth.models import User
+from django.test import Client
+
+from commands.models import Command, CommandEvent
+from commands.services import command_claim_open, command_enqueue
+from vessels.models import Mission, Vessel, VesselKey
+from vessels.services import mission_save, mission_save_items
+
+pytestmark = pytest.mark.django_db
+
+
+def test_the_command_form_queues_a_valid_command(admin_ui: Client, vessel_a: Vessel) -> None:
+    page = admin_ui.get("/admin/commands/command/add/").content.decode()
+    assert "move_to__lat" in page and "command_form.js" in page
+    response = admin_ui.post(
+        "/admin/commands/command/add/",
+        {
+            "vessel": vessel_a.pk,
+            "kind": "move_to",
+            "move_to__lat": "-31.95",
+            "move_to__lon": "115.86",
+        },
+    )
+    assert response.status_code == 302
+    command = Command.objects.get()
+    assert (command.kind, command.params, command.source) == (
+        "move_to",
+        {"lat": -31.95, "lon": 115.86},
+        "admin",
+    )
+    assert command.events.get().to_status == "queued"
+
+
+def test_the_command_form_refuses_what_the_catalog_refuses(
+    admin_ui: Client, vessel_a: Vessel, glider: Vessel
+) -> None:
+    missing = admin_ui.post(
+        "/admin/commands/command/add/",
+        {"vessel": vessel_a.pk, "kind": "move_to", "move_to__lat": "-31.95"},
+    )
+    assert "lon is required" in missing.content.decode()
+    wrong_kind = admin_ui.post(
+        "/admin/commands/command/add/",
+        {"vessel": glider.pk, "kind": "move_to", "move_to__lat": "1", "move_to__lon": "2"},
+    )
+    assert "not available for wave_glider" in wrong_kind.content.decode()
+    assert not Command.objects.exists()
+
+
+def test_the_command_form_refuses_what_the_service_refuses(
+    admin_ui: Client, vessel_a: Vessel
+) -> None:
+    # command_enqueue's own rules (past expiry, inactive vessel) are form errors, not a 500.
+    past = admin_ui.post(
+        "/admin/commands/command/add/",
+        {
+            "vessel": vessel_a.pk,
+            "kind": "hold",
+            "expires_at_0": "2001-01-01",
+            "expires_at_1": "00:00:00",
+        },
+    )
+    assert past.status_code == 200
+    assert "expires_at must be in the future" in past.content.decode()
+    Vessel.objects.filter(pk=vessel_a.pk).update(active=False)
+    inactive = admin_ui.post(
+        "/admin/commands/command/add/", {"vessel": vessel_a.pk, "kind": "hold"}
+    )
+    assert inactive.status_code == 200
+    assert "vessel spab is not active" in inactive.content.decode()
+    assert not Command.objects.exists()
+
+
+def test_the_command_form_sends_a_mission_and_glider_commands(
+    admin_ui: Client, vessel_a: Vessel, glider: Vessel
+) -> None:
+    mission = mission_save(mission=Mission(name="loop", vessel=vessel_a))
+    mission_save_items(
+        mission=mission, items=[{"lat": -31.9, "lon": 115.8}, {"lat": -31.91, "lon": 115.81}]
+    )
+    admin_ui.post(
+        "/admin/commands/command/add/",
+        {"vessel": vessel_a.pk, "kind": "mission", "mission": mission.pk},
+    )
+    admin_ui.post(
+        "/admin/commands/command/add/",
+        {
+            "vessel": glider.pk,
+            "kind": "fcourse",
+            "fcourse__mode": "HOLD",
+            "fcourse__indices": "3, 4 1",
+        },
+    )
+    sent = {c.kind: c.params for c in Command.objects.all()}
+    assert len(sent["mission"]["items"]) == 2
+    assert sent["fcourse"] == {"mode": "HOLD", "indices": [3, 4, 1]}
+
+
+def test_the_cancel_action_cancels_open_commands_only(admin_ui: Client, vessel_a: Vessel) -> None:
+    open_one = command_enqueue(vessel=vessel_a, kind="arm", params={})
+    done_one = command_enqueue(vessel=vessel_a, kind="disarm", params={})
+    Command.objects.filter(pk=done_one.pk).update(status="done")
+    admin_ui.post(
+        "/admin/commands/command/",
+        {"action": "cancel", "_selected_action": [open_one.pk, done_one.pk]},
+    )
+    open_one.refresh_from_db()
+    done_one.refresh_from_db()
+    assert (open_one.status, done_one.status) == ("cancelled", "done")
+
+
+def test_a_command_page_is_read_only_with_its_history(admin_ui: Client, vessel_a: Vessel) -> None:
+    command = command_enqueue(vessel=vessel_a, kind="hold", params={})
+    command_claim_open(vessel=vessel_a)
+    page = admin_ui.get(f"/admin/commands/command/{command.pk}/change/").content.decode()
+    assert "queued" in page and "sent" in page
+    assert 'name="_save"' not in page
+    assert CommandEvent.objects.filter(command=command).count() == 2
+
+
+def test_commands_and_keys_are_never_deleted_from_the_admin(
+    admin_ui: Client, vessel_a: Vessel, key_a: str
+) -> None:
+    # Their history is the audit trail: a command is cancelled, a key revoked (services).
+    command = command_enqueue(vessel=vessel_a, kind="hold", params={})
+    key = VesselKey.objects.get()
+    for model, pk in (("commands/command", command.pk), ("vessels/vesselkey", key.pk)):
+        assert admin_ui.get(f"/admin/{model}/{pk}/delete/").status_code == 403
+        changelist = admin_ui.get(f"/admin/{model}/").content.decode()
+        assert 'value="delete_selected"' not in changelist
+    assert Command.objects.filter(pk=command.pk).exists()
+    assert VesselKey.objects.filter(pk=key.pk).exists()
+
+
+def test_an_operator_without_permission_cannot_queue(
+    client: Client, readonly_user: User, vessel_a: Vessel
+) -> None:
+    client.force_login(readonly_user)
+    assert client.get("/admin/commands/command/add/").status_code == 403

@@ -1,0 +1,99 @@
+"""The edge client's copy of the command rules is the server's catalog, value for value.
+
+The boat cannot import the catalog (it never imports the server's code), so it keeps a copy in
+``edge_client/catalog.py``. Both modules are pure, so this needs no Django: a change on either
+side that the other lacks fails here, before a boat refuses a command the server accepted.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from commands import catalog
+from edge_client import catalog as edge
+from edge_client.executor import CommandError, validate
+from edge_client.sim.rover import MODES as SIM_MODES
+from edge_client.vehicle import MODE_NAMES
+
+MAVLINK_KINDS = catalog.kinds_for(catalog.MAVLINK)
+MISSION_ITEM_PARAMS = catalog.MISSION_ITEM_PARAMS
+
+
+def ranged(params: tuple[catalog.Param, ...]) -> dict[str, tuple[float | None, float | None]]:
+    return {
+        p.name: (p.minimum, p.maximum)
+        for p in params
+        if p.minimum is not None or p.maximum is not None
+    }
+
+
+def test_the_boat_runs_exactly_the_catalogs_mavlink_kinds_with_the_same_parameters() -> None:
+    assert edge.KIND_PARAMS == {k.name: tuple(p.name for p in k.params) for k in MAVLINK_KINDS}
+    assert edge.MISSION_ITEM_PARAMS == tuple(p.name for p in MISSION_ITEM_PARAMS)
+
+
+def test_navigation_kinds_are_the_catalogs() -> None:
+    assert edge.NAVIGATION_KINDS == {k.name for k in MAVLINK_KINDS if k.navigation}
+
+
+def test_every_range_is_the_catalogs() -> None:
+    server: dict[str, tuple[float | None, float | None]] = {}
+    for kind in MAVLINK_KINDS:
+        server |= ranged(kind.params)
+    server |= ranged(MISSION_ITEM_PARAMS)
+    assert edge.RANGES == server
+
+
+def test_the_mission_length_limit_is_the_catalogs() -> None:
+    assert edge.MISSION_MAX_ITEMS == catalog.MISSION_MAX_ITEMS
+
+
+def test_rover_modes_are_the_catalogs_by_name_and_number() -> None:
+    assert edge.ROVER_MODES == catalog.ROVER_MODES
+    assert catalog.KINDS["set_mode"].param("mode").choices == tuple(edge.ROVER_MODES)
+    # The HEARTBEAT decoder knows them all, plus the boot-time mode nobody may ask for.
+    assert MODE_NAMES == {n: name for name, n in catalog.ROVER_MODES.items()} | {
+        edge.INITIALISING: "INITIALISING"
+    }
+    assert "INITIALISING" not in catalog.ROVER_MODES
+
+
+def test_the_simulated_rover_knows_every_catalog_mode_by_the_same_number() -> None:
+    assert SIM_MODES == catalog.ROVER_MODES | {"INITIALISING": edge.INITIALISING}
+
+
+@pytest.mark.parametrize("name", sorted(edge.RANGES))
+def test_the_boat_refuses_just_outside_each_catalog_range_and_takes_its_ends(name: str) -> None:
+    lo, hi = edge.RANGES[name]
+
+    def check(value: float) -> dict:
+        if name in ("lat", "lon"):
+            return validate("move_to", {"lat": 0, "lon": 0, name: value})
+        if name == "mission_id":
+            return validate("mission", {"items": [{"lat": 0, "lon": 0}], "mission_id": value})
+        return validate("mission", {"items": [{"lat": 0, "lon": 0, name: value}]})
+
+    for end in (lo, hi):
+        if end is not None:
+            check(end)
+    for outside in (lo - 0.25 if lo is not None else None, hi + 0.25 if hi is not None else None):
+        if outside is not None:
+            with pytest.raises(CommandError, match=name):
+                check(outside)
+
+
+def test_a_mission_one_item_past_the_catalogs_limit_is_refused() -> None:
+    items = [{"lat": 0, "lon": 0}] * catalog.MISSION_MAX_ITEMS
+    assert len(validate("mission", {"items": items})["items"]) == catalog.MISSION_MAX_ITEMS
+    with pytest.raises(CommandError, match=f"more than {catalog.MISSION_MAX_ITEMS}"):
+        validate("mission", {"items": [*items, {"lat": 0, "lon": 0}]})
+
+
+@pytest.mark.parametrize("mode", catalog.ROVER_MODES)
+def test_every_catalog_mode_is_accepted_by_the_boat(mode: str) -> None:
+    assert validate("set_mode", {"mode": mode.lower()}) == {"mode": mode}
+
+
+def test_the_boot_time_mode_cannot_be_asked_for() -> None:
+    with pytest.raises(CommandError, match="unknown Rover mode"):
+        validate("set_mode", {"mode": "INITIALISING"})

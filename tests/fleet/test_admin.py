@@ -1,0 +1,78 @@
+"""The admin site as assembled (fleet.admin): pages joining apps, logins, every page renders."""
+
+from __future__ import annotations
+
+import pytest
+from django.test import Client
+
+from commands.models import Command
+from commands.services import command_enqueue
+from vessels.models import Mission, Vessel
+from vessels.services import mission_save, mission_save_items
+
+pytestmark = pytest.mark.django_db
+
+
+def test_the_vessel_page_shows_keys_recent_fixes_and_commands(
+    admin_ui: Client, reported: Vessel, key_a: str
+) -> None:
+    command_enqueue(vessel=reported, kind="hold", params={})
+    page = admin_ui.get(f"/admin/vessels/vessel/{reported.pk}/change/").content.decode()
+    assert key_a[:12] in page  # the prefix, never the key
+    assert key_a not in page
+    assert "Issue a new key" in page
+    assert "2026-11-23 10:00:00" in page
+    assert "hold" in page and "queued" in page
+
+
+def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(
+    admin_ui: Client, vessel_a: Vessel, glider: Vessel
+) -> None:
+    ready = mission_save(mission=Mission(name="Ready", vessel=vessel_a, loop=True))
+    mission_save_items(mission=ready, items=[{"lat": -31.9, "lon": 115.8, "radius_m": 5}])
+    template = mission_save(mission=Mission(name="Template"))
+    for_glider = mission_save(mission=Mission(name="Glider run", vessel=glider))
+    mission_save_items(mission=for_glider, items=[{"lat": -32.0, "lon": 115.3}])
+    response = admin_ui.post(
+        "/admin/vessels/mission/",
+        {"action": "send_to_vessel", "_selected_action": [ready.pk, template.pk, for_glider.pk]},
+        follow=True,
+    )
+    page = response.content.decode()
+    assert "Template: a template has no vessel" in page
+    assert "Glider run: mission is not available for wave_glider vessels" in page
+    command = Command.objects.get()
+    assert (command.vessel, command.kind, command.source) == (vessel_a, "mission", "admin")
+    assert command.params == {
+        "mission_id": ready.pk,
+        "loop": True,
+        "items": [{"lat": -31.9, "lon": 115.8, "hold_s": 0.0, "radius_m": 5.0}],
+    }
+
+
+@pytest.mark.parametrize(
+    "url",
+    [
+        "/admin/",
+        "/admin/vessels/vessel/add/",
+        "/admin/vessels/mission/",
+        "/admin/telemetry/sensorchannel/",
+        "/admin/commands/command/",
+    ],
+)
+def test_every_admin_page_renders(admin_ui: Client, vessel_a: Vessel, url: str) -> None:
+    assert admin_ui.get(url).status_code == 200
+
+
+def test_admin_pages_need_a_login(client: Client) -> None:
+    response = client.get("/admin/vessels/vessel/")
+    assert response.status_code == 302 and "/admin/login/" in response["Location"]
+
+
+@pytest.mark.parametrize(
+    "url", ["/admin/auth/user/", "/admin/auth/group/", "/admin/operators/operatortoken/"]
+)
+def test_operators_and_their_api_tokens_are_managed_in_the_admin(
+    admin_ui: Client, url: str
+) -> None:
+    assert admin_ui.get(url).status_code == 200

@@ -1,0 +1,48 @@
+"""Imports point one way (DESIGN §2): vessels at the bottom, telemetry and commands above it,
+sms above those, fleet on top; the edge client stands alone (it runs on the boat's Pi)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+# An app may import apps of a lower layer only; apps of one layer do not import each other.
+# operators (the operators' own API tokens and login limit) sits at the bottom beside vessels.
+LAYER = {"operators": 0, "vessels": 0, "telemetry": 1, "commands": 1, "sms": 2, "fleet": 3}
+STANDALONE = {"edge_client": {"django", "rest_framework", *LAYER}}
+
+
+def imported_packages(path: Path) -> list[tuple[int, str]]:
+    """(line, top-level package) of every absolute import in a module, nested ones too."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name.split(".")[0]) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.append((node.lineno, node.module.split(".")[0]))
+    return found
+
+
+def scan(app: str) -> tuple[int, list[str]]:
+    """(how many imports were read, the ones that point the wrong way) for one app."""
+    seen, bad = 0, []
+    for path in sorted((ROOT / app).rglob("*.py")):
+        for line, package in imported_packages(path):
+            seen += 1
+            if app in STANDALONE:
+                wrong = package in STANDALONE[app]
+            else:
+                wrong = package in LAYER and package != app and LAYER[package] >= LAYER[app]
+            if wrong:
+                bad.append(f"{path.relative_to(ROOT)}:{line} imports {package}")
+    return seen, bad
+
+
+@pytest.mark.parametrize("app", [*LAYER, *STANDALONE])
+def test_no_app_imports_upward(app: str) -> None:
+    seen, bad = scan(app)
+    assert seen > 0  # the app was found and read
+    assert bad == []

@@ -1,0 +1,278 @@
+"""v1 telemetry (DESIGN §5): batches in, one bad fix never loses the good ones."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+from typing import Any
+
+import pytest
+from django.db import connection
+from django.test.utils import CaptureQueriesContext
+from django.utils import timezone
+from rest_framework.test import APIClient
+
+from telemetry.models import Fix
+from tests.support import TELEMETRY, MakeFix, iso
+from vessels.models import Vessel
+
+
+def test_boat_b_telemetry_goes_to_boat_b(
+    boat_b: APIClient, vessel_a: Vessel, vessel_b: Vessel, make_fix: MakeFix
+) -> None:
+    boat_b.post(TELEMETRY, [make_fix()], format="json")
+    assert Fix.objects.get().vessel == vessel_b
+    assert not vessel_a.fixes.exists()
+
+
+# --- the poll: ETag / 304 and at-least-once delivery ---
+
+
+def test_it_stores_a_list_or_an_object_of_fixes(
+    boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix
+) -> None:
+    response = boat_a.post(TELEMETRY, [make_fix(time="2026-11-23T09:00:00Z")], format="json")
+    assert response.json() == {"accepted": 1, "duplicates": 0, "rejected": []}
+    response = boat_a.post(
+        TELEMETRY, {"fixes": [make_fix(time="2026-11-23T09:00:01+00:00")]}, format="json"
+    )
+    assert response.json() == {"accepted": 1, "duplicates": 0, "rejected": []}
+    fix = vessel_a.fixes.order_by("recorded_at").first()
+    assert (fix.lat, fix.lon, fix.heading_deg, fix.speed_mps, fix.battery_v) == (
+        -31.9505,
+        115.8605,
+        90.0,
+        1.2,
+        12.6,
+    )
+    assert fix.readings == {"water_temp_c": 19.5}
+    vessel_a.refresh_from_db()
+    assert vessel_a.last_fix_at == dt.datetime(2026, 11, 23, 9, 0, 1, tzinfo=dt.UTC)
+    assert vessel_a.last_seen_at is not None
+
+
+def test_it_takes_unix_seconds(boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix) -> None:
+    when = timezone.now().replace(microsecond=0) - dt.timedelta(minutes=5)
+    boat_a.post(TELEMETRY, [make_fix(time=when.timestamp())], format="json")
+    assert vessel_a.fixes.get().recorded_at == when
+
+
+def test_a_resent_batch_counts_as_duplicates(
+    boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix
+) -> None:
+    batch = [make_fix(time=f"2026-11-23T09:00:0{i}Z") for i in range(3)]
+    boat_a.post(TELEMETRY, batch[:2], format="json")
+    response = boat_a.post(TELEMETRY, batch, format="json")
+    assert response.json() == {"accepted": 1, "duplicates": 2, "rejected": []}
+    assert vessel_a.fixes.count() == 3
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ("{not json", "JSON parse error"),
+        ('{"lat": 1, "lon": 2}', 'Expected a JSON list of fixes, or an object {"fixes": [...]}.'),
+        ('{"fixes": {"lat": 1}}', "Expected a JSON list of fixes"),
+        ('"fixes"', "Expected a JSON list of fixes"),
+        ("42", "Expected a JSON list of fixes"),
+        ("null", "Expected a JSON list of fixes"),
+        ("", "Expected a JSON list of fixes"),
+    ],
+)
+def test_a_body_that_is_not_a_list_of_fixes_is_a_400(
+    boat_a: APIClient, vessel_a: Vessel, body: str, message: str
+) -> None:
+    response = boat_a.post(TELEMETRY, body, content_type="application/json")
+    assert response.status_code == 400
+    assert response.json()["error"] == "parse_error"
+    assert message in response.json()["detail"]
+    assert not Fix.objects.exists()
+
+
+def test_a_body_that_is_not_json_at_all_is_a_415(boat_a: APIClient) -> None:
+    response = boat_a.post(TELEMETRY, "lat=1&lon=2", content_type="text/plain")
+    assert response.status_code == 415
+    assert response.json()["error"] == "unsupported_media_type"
+
+
+def test_a_batch_over_the_limit_is_refused_whole(
+    boat_a: APIClient, make_fix: MakeFix, settings: Any
+) -> None:
+    settings.FIX_MAX_BATCH = 5
+    base = dt.datetime(2026, 11, 23, 9, tzinfo=dt.UTC)
+    batch = [make_fix(time=iso(base + dt.timedelta(seconds=i))) for i in range(6)]
+    response = boat_a.post(TELEMETRY, batch, format="json")
+    assert response.status_code == 400
+    assert response.json() == {
+        "error": "parse_error",
+        "detail": "At most 5 fixes per request (got 6).",
+    }
+    assert not Fix.objects.exists()
+    assert boat_a.post(TELEMETRY, batch[:5], format="json").json()["accepted"] == 5
+
+
+def _future() -> str:
+    return iso(timezone.now() + dt.timedelta(hours=1))
+
+
+BAD_FIXES: list[tuple[dict[str, Any], dict[str, str]]] = [
+    ({"lat": 91}, {"lat": "must be between -90 and 90"}),
+    ({"lon": -180.5}, {"lon": "must be between -180 and 180"}),
+    ({"lat": "-31.9"}, {"lat": "must be a number"}),
+    ({"lat": True}, {"lat": "must be a number"}),
+    ({"lon": False}, {"lon": "must be a number"}),
+    ({"lat": None}, {"lat": "is required"}),
+    ({"lat": ...}, {"lat": "is required"}),
+    ({"lat": 10**400}, {"lat": "must be a number"}),
+    ({"time": ...}, {"time": "is required"}),
+    ({"time": "2026-11-23T10:00:00"}, {"time": "needs a UTC offset, e.g. 2026-11-23T10:00:00Z"}),
+    ({"time": "yesterday"}, {"time": "must be ISO 8601 (with offset) or Unix seconds"}),
+    ({"time": True}, {"time": "must be ISO 8601 (with offset) or Unix seconds"}),
+    ({"time": 1e20}, {"time": "is out of range"}),
+    ({"time": "2009-01-01T00:00:00Z"}, {"time": "is before 2018-01-01"}),
+    ({"heading_deg": 361}, {"heading_deg": "must be between 0 and 360"}),
+    ({"heading_deg": "N"}, {"heading_deg": "must be a number"}),
+    ({"speed_mps": -1}, {"speed_mps": "must be between 0 and 1000"}),
+    ({"battery_v": True}, {"battery_v": "must be a number"}),
+    ({"readings": [1, 2]}, {"readings": "must be an object of name: number"}),
+    ({"readings": {"t": "hot"}}, {"readings": "t must be a number"}),
+    ({"readings": {"t": None}}, {"readings": "t must be a number"}),
+    ({"readings": {"t": True}}, {"readings": "t must be a number"}),
+    ({"readings": {"x" * 51: 1}}, {"readings": f"name {'x' * 20!r} must be 1-50 characters"}),
+    ({"readings": {f"r{i}": i for i in range(65)}}, {"readings": "has more than 64 values"}),
+]
+
+
+@pytest.mark.parametrize(("overrides", "errors"), BAD_FIXES)
+def test_a_bad_fix_is_rejected_by_index_naming_the_field(
+    boat_a: APIClient,
+    vessel_a: Vessel,
+    make_fix: MakeFix,
+    overrides: dict[str, Any],
+    errors: dict[str, str],
+) -> None:
+    response = boat_a.post(TELEMETRY, [make_fix(**overrides)], format="json")
+    assert response.status_code == 200
+    assert response.json() == {
+        "accepted": 0,
+        "duplicates": 0,
+        "rejected": [{"index": 0, "errors": errors}],
+    }
+    assert not Fix.objects.exists()
+    vessel_a.refresh_from_db()
+    assert vessel_a.last_fix is None
+
+
+def test_a_fix_far_in_the_future_is_rejected(boat_a: APIClient, make_fix: MakeFix) -> None:
+    response = boat_a.post(TELEMETRY, [make_fix(time=_future())], format="json")
+    assert response.json()["rejected"] == [
+        {"index": 0, "errors": {"time": "is more than 300 s in the future (check the clock)"}}
+    ]
+    assert not Fix.objects.exists()
+
+
+def test_an_unknown_field_is_rejected_naming_it(boat_a: APIClient, make_fix: MakeFix) -> None:
+    response = boat_a.post(TELEMETRY, [make_fix(altitude=3)], format="json")
+    errors = response.json()["rejected"][0]["errors"]
+    assert list(errors) == ["altitude"]
+    assert errors["altitude"].startswith("unknown field (allowed: battery_v, heading_deg, lat")
+
+
+def test_a_fix_that_is_not_an_object_is_rejected_by_index(
+    boat_a: APIClient, make_fix: MakeFix
+) -> None:
+    response = boat_a.post(TELEMETRY, [make_fix(), [1, 2], "fix", None], format="json")
+    body = response.json()
+    assert body["accepted"] == 1
+    assert [r["index"] for r in body["rejected"]] == [1, 2, 3]
+    assert body["rejected"][0]["errors"] == {"non_field_errors": "each fix must be a JSON object"}
+
+
+@pytest.mark.parametrize("name", ["a\x00b", "a\ud800b"])
+def test_a_reading_name_the_database_cannot_store_costs_only_its_own_fix(
+    boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix, name: str
+) -> None:
+    # On PostgreSQL this failed the whole INSERT: a 500, and the good fix lost with it.
+    batch = [
+        make_fix(time="2026-11-23T09:00:00Z"),
+        make_fix(time="2026-11-23T09:00:01Z", readings={name: 1.0}),
+        make_fix(time="2026-11-23T09:00:02Z", **{name: 1.0}),
+    ]
+    body = json.dumps({"fixes": batch})
+    response = boat_a.post(TELEMETRY, body, content_type="application/json")
+    assert response.status_code == 200
+    assert response.json()["accepted"] == 1
+    assert [r["index"] for r in response.json()["rejected"]] == [1, 2]
+    assert vessel_a.fixes.count() == 1
+
+
+def test_the_good_fixes_of_a_mixed_batch_are_stored(
+    boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix
+) -> None:
+    batch = [
+        make_fix(time="2026-11-23T09:00:00Z"),
+        make_fix(time="2026-11-23T09:00:01Z", lat=123),
+        make_fix(time="2026-11-23T09:00:02Z", lon=True),
+        make_fix(time="2026-11-23T09:00:03Z", lat=-32.0),
+        make_fix(time=_future()),
+        make_fix(time="2026-11-23T09:00:05"),
+        make_fix(time="2026-11-23T09:00:00Z"),  # a repeat of the first, inside the batch
+    ]
+    response = boat_a.post(TELEMETRY, batch, format="json")
+    assert response.status_code == 200
+    body = response.json()
+    assert (body["accepted"], body["duplicates"]) == (2, 1)
+    assert [(r["index"], list(r["errors"])) for r in body["rejected"]] == [
+        (1, ["lat"]),
+        (2, ["lon"]),
+        (4, ["time"]),
+        (5, ["time"]),
+    ]
+    stored = list(vessel_a.fixes.order_by("recorded_at").values_list("recorded_at", "lat"))
+    assert stored == [
+        (dt.datetime(2026, 11, 23, 9, 0, 0, tzinfo=dt.UTC), -31.9505),
+        (dt.datetime(2026, 11, 23, 9, 0, 3, tzinfo=dt.UTC), -32.0),
+    ]
+    vessel_a.refresh_from_db()
+    assert vessel_a.last_fix["lat"] == -32.0
+
+
+ODD_NUMBERS = [
+    ('"lat": NaN, "lon": 115.86', "lat"),
+    ('"lat": Infinity, "lon": 115.86', "lat"),
+    ('"lat": -31.95, "lon": -Infinity', "lon"),
+    ('"lat": ' + "9" * 5000 + ', "lon": 115.86', "lat"),
+    ('"lat": -31.95, "lon": 115.86, "readings": {"t": NaN}', "readings"),
+]
+
+
+@pytest.mark.parametrize(("position", "field"), ODD_NUMBERS)
+def test_a_non_standard_number_costs_only_its_own_fix(
+    boat_a: APIClient, vessel_a: Vessel, position: str, field: str
+) -> None:
+    good = '{"time": "2026-11-23T10:00:00Z", "lat": -31.95, "lon": 115.86}'
+    odd = '{"time": "2026-11-23T10:00:10Z", ' + position + "}"
+    body = '{"fixes": [' + good + ", " + odd + "]}"
+    response = boat_a.generic("POST", TELEMETRY, body, content_type="application/json")
+    assert response.status_code == 200, response.content
+    answer = response.json()
+    assert answer["accepted"] == 1
+    assert [(r["index"], list(r["errors"])) for r in answer["rejected"]] == [(1, [field])]
+    assert Fix.objects.filter(vessel=vessel_a).count() == 1
+
+
+def test_a_single_fix_post_is_two_statements_on_postgresql(
+    boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix
+) -> None:
+    """Key lookup, then the fix and the vessel's last fix in one statement (no BEGIN/COMMIT):
+    a legacy client posts one fix per request, so round trips are its cost."""
+    if connection.vendor != "postgresql":
+        pytest.skip("SQLite has no round trips; it keeps one transaction per batch")
+    boat_a.post(TELEMETRY, [make_fix(time="2026-11-23T09:00:00Z")], format="json")  # key touch
+    with CaptureQueriesContext(connection) as queries:
+        response = boat_a.post(TELEMETRY, [make_fix()], format="json")
+    assert response.json()["accepted"] == 1
+    assert len(queries) == 2, [q["sql"][:80] for q in queries]
+    vessel_a.refresh_from_db()
+    assert vessel_a.last_fix_at == dt.datetime(2026, 11, 23, 10, tzinfo=dt.UTC)
+    assert vessel_a.last_fix["battery_v"] == 12.6

@@ -1,0 +1,69 @@
+"""The base every boat endpoint stands on: key authentication, JSON only, one parser.
+
+The v1 endpoints and the thesis' legacy CGI endpoints live in the app that owns their data
+(telemetry, commands); what they share about *talking to a boat* lives here, beside the key
+authentication.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rest_framework.negotiation import DefaultContentNegotiation
+from rest_framework.renderers import JSONRenderer
+from rest_framework.request import Request
+from rest_framework.response import Response
+from rest_framework.views import APIView
+
+from vessels.api.parsers import JSONParser
+from vessels.auth import LegacyKeyAuthentication, VesselKeyAuthentication
+from vessels.models import Vessel
+from vessels.permissions import IsBoat
+
+
+class JsonOnly(DefaultContentNegotiation):
+    """The boat API answers JSON whatever the Accept header says (old modem clients send odd
+    ones); parsing Accept on every poll cost more than the poll's own query (profiled)."""
+
+    def select_renderer(
+        self, request: Request, renderers: list[Any], format_suffix: Any = None
+    ) -> tuple[Any, str]:
+        return renderers[0], renderers[0].media_type
+
+
+class BoatView(APIView):
+    """A v1 boat endpoint: `Authorization: Api-Key <key>`, JSON in and out."""
+
+    authentication_classes = [VesselKeyAuthentication]
+    permission_classes = [IsBoat]
+    parser_classes = [JSONParser]
+    renderer_classes = [JSONRenderer]
+    content_negotiation_class = JsonOnly
+
+    def vessel(self, request: Request) -> Vessel:
+        return request.user.vessel
+
+
+def telem_ack(success: bool, message: str) -> list[dict[str, str]]:
+    """The thesis' answer shape (Listing 1's server side): `[{"type": "telemAck"}, {...}]`."""
+    return [{"type": "telemAck"}, {"success": "true" if success else "false", "message": message}]
+
+
+class LegacyBoatView(APIView):
+    """A thesis-era SPAB endpoint (DESIGN §5 "Legacy SPAB wire format"): key by header, Basic
+    or `?key=`; every error answered as a `telemAck`, the only shape the old client reads."""
+
+    authentication_classes = [LegacyKeyAuthentication]
+    permission_classes = [IsBoat]
+
+    def vessel(self, request: Request) -> Vessel:
+        return request.user.vessel
+
+    def handle_exception(self, exc: Exception) -> Response:
+        # The project's exception handler has already given the error its status code and
+        # {"error", "detail"} body; keep the code, re-word the body for the old client.
+        response = super().handle_exception(exc)
+        data = response.data
+        detail = data.get("detail", data) if isinstance(data, dict) else data
+        response.data = telem_ack(False, str(detail))
+        return response

@@ -1,0 +1,85 @@
+"""API request limits: a boat by its vessel, an operator by their user (DRF throttles).
+
+Both sit in REST_FRAMEWORK's DEFAULT_THROTTLE_CLASSES, so they apply to the boat views as
+well (these set only their own authentication). A throttled request is a 429 with
+Retry-After; the API's exception handler gives it the usual {"error": "throttled", …} body.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from django.core.exceptions import ImproperlyConfigured
+from rest_framework.request import Request
+from rest_framework.settings import api_settings
+from rest_framework.throttling import SimpleRateThrottle
+
+from vessels.auth import BoatPrincipal
+
+
+class WindowRateThrottle(SimpleRateThrottle):
+    """A counter per fixed window (cache.add, then cache.incr): O(1) per request.
+
+    DRF's SimpleRateThrottle keeps the time of every request in the window and rewrites that
+    whole list on each one (600 entries for a busy boat, on every poll). A fixed window lets a
+    burst straddling its edge reach twice the rate, which is fine for abuse control.
+    """
+
+    wait_s: float | None = None
+
+    def get_rate(self) -> str | None:
+        # Read at call time: DRF binds THROTTLE_RATES to the class when it is imported.
+        try:
+            return api_settings.DEFAULT_THROTTLE_RATES[self.scope]
+        except KeyError:
+            raise ImproperlyConfigured(f"No throttle rate for {self.scope!r}") from None
+
+    def allow_request(self, request: Request, view: Any) -> bool:
+        if self.rate is None:
+            return True
+        key = self.get_cache_key(request, view)
+        if key is None:
+            return True
+        now = self.timer()
+        window = int(now // self.duration)
+        key = f"{key}:{window}"
+        if self.cache.add(key, 1, self.duration):
+            count = 1
+        else:
+            try:
+                # Atomic in locmem; get-then-set in the file and database caches, where a
+                # race may lose a count (and the key's timeout becomes the cache's 300 s).
+                count = self.cache.incr(key)
+            except ValueError:  # expired between add() and incr()
+                self.cache.set(key, 1, self.duration)
+                count = 1
+        if count <= self.num_requests:
+            return True
+        self.wait_s = (window + 1) * self.duration - now
+        return False
+
+    def wait(self) -> float | None:
+        return self.wait_s
+
+
+class BoatRateThrottle(WindowRateThrottle):
+    """Requests per vessel, whichever of its keys the boat uses (THROTTLE_BOAT_RATE)."""
+
+    scope = "boat"
+
+    def get_cache_key(self, request: Request, view: Any) -> str | None:
+        if not isinstance(request.user, BoatPrincipal):
+            return None
+        return f"throttle:boat:{request.user.vessel.pk}"
+
+
+class OperatorRateThrottle(WindowRateThrottle):
+    """Requests per operator, by session or token (THROTTLE_OPERATOR_RATE)."""
+
+    scope = "operator"
+
+    def get_cache_key(self, request: Request, view: Any) -> str | None:
+        user = request.user
+        if user is None or isinstance(user, BoatPrincipal) or not user.is_authenticated:
+            return None
+        return f"throttle:operator:{user.pk}"
