@@ -16,6 +16,14 @@ Runs, side by side for ``--duration`` seconds (after a short warm-up):
 Bytes are HTTP bytes (request and response lines, headers, bodies); TCP/IP and TLS overhead is
 not counted, but the number of TCP connections is shown (the thesis' client opened one per
 request; the HTTP transport keeps one alive).
+
+Then the outbox's writes to its storage (an SD card on the Pi) for an hour of 1 Hz fixes, run
+without waiting (``--outbox-only`` runs just this part): the group commits against the old
+behaviour, one ``synchronous=FULL`` transaction per fix and per removal, measured in the same
+run as the baseline. Each variant runs in its own process: commits are counted on the sqlite
+connection, bytes and write calls from /proc/<pid>/io (``wchar``/``syscw``: what the process
+handed to write(), the db and WAL files being all it writes), fsync/fdatasync calls with
+``strace -c`` when strace is installed.
 """
 
 from __future__ import annotations
@@ -24,6 +32,7 @@ import argparse
 import http.client
 import json
 import os
+import shutil
 import socket
 import subprocess
 import sys
@@ -248,12 +257,113 @@ def per_hour(value: float, wall: float) -> float:
     return value * 3600 / wall
 
 
+# -- the outbox's writes ----------------------------------------------------------------------
+
+HOUR_OF_FIXES = 3600  # one hour at 1 Hz
+OUTBOX_VARIANTS = {
+    "per-fix": "before: FULL commit per fix and removal (baseline)",
+    "grouped": "group commits (commit_every 10), rest NORMAL",
+}
+# (label, fixes between uplink rounds, does the server take them)
+OUTBOX_SCENARIOS = [
+    ("uplink every 10 s, server answering", 10, True),
+    ("server unreachable: a failed round every 60 s", 60, False),
+]
+
+
+def proc_io() -> dict[str, int]:
+    lines = Path("/proc/self/io").read_text().splitlines()
+    return {k: int(v) for k, v in (line.split(": ") for line in lines)}
+
+
+def outbox_workload(variant: str, path: str, every: int, accepted: bool) -> dict:
+    """An hour of 1 Hz fixes through an Outbox, as the client drives it, without waiting."""
+    from edge_client.outbox import Outbox
+
+    if variant == "per-fix":
+        box = Outbox(path, commit_every=1, synchronous="FULL")
+    else:
+        box = Outbox(path, commit_every=10)  # the [outbox] commit_every default
+    commits = 0
+
+    def count(sql: str) -> None:
+        nonlocal commits
+        commits += sql == "COMMIT"
+
+    box._db.set_trace_callback(count)  # a bench may look inside
+    io0, t0 = proc_io(), time.perf_counter()
+    for n in range(HOUR_OF_FIXES):
+        box.add_fix({"time": 1_800_000_000 + n, "lat": -31.98 + n * 1e-6, "lon": 115.82,
+                     "heading_deg": 87.5, "speed_mps": 1.42, "battery_v": 12.61,
+                     "readings": {"armed": 1, "mission_item": 3, "mode_number": 10,
+                                  "water_temp_c": 18.5}})  # fmt: skip
+        if (n + 1) % every == 0:  # an uplink round
+            items = box.peek("fix", 100)
+            if accepted:
+                box.remove([i.id for i in items])
+    box.close()
+    wall, io1 = time.perf_counter() - t0, proc_io()
+    return {"commits": commits, "wchar": io1["wchar"] - io0["wchar"],
+            "syscw": io1["syscw"] - io0["syscw"], "wall": wall}  # fmt: skip
+
+
+def run_outbox_workload(variant: str, every: int, accepted: bool, tmp: Path) -> dict:
+    """Run one workload in a fresh process (twice under strace, to count the fsyncs)."""
+    args = ["-m", "bench.edge", "--outbox-workload", variant, str(every), str(int(accepted))]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    db = tmp / f"{variant}-{every}.sqlite3"
+    out = subprocess.run([sys.executable, *args, str(db)], cwd=ROOT, env=env, check=True,
+                         capture_output=True, text=True).stdout  # fmt: skip
+    result = json.loads(out)
+    result["fsyncs"] = None
+    if shutil.which("strace"):
+        summary = tmp / "strace.txt"
+        traced = tmp / f"traced-{variant}-{every}.sqlite3"
+        subprocess.run(["strace", "-f", "-qq", "-c", "-e", "trace=fsync,fdatasync", "-o",
+                        str(summary), sys.executable, *args, str(traced)], cwd=ROOT, env=env,
+                       check=True, capture_output=True)  # fmt: skip
+        rows = [line.split() for line in summary.read_text().splitlines()]
+        result["fsyncs"] = sum(int(r[3]) for r in rows if r and r[-1] in ("fsync", "fdatasync"))
+    return result
+
+
+def outbox_report() -> None:
+    print(f"Outbox writes for an hour of 1 Hz fixes ({HOUR_OF_FIXES} fixes, run without waiting)")
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, every, accepted in OUTBOX_SCENARIOS:
+            print()
+            print(label)
+            print(f"{'outbox':52} {'commits/h':>9} {'fsyncs/h':>9} {'write MB/h':>10} "
+                  f"{'writes/h':>9} {'s/h':>6} {'fsyncs vs base':>14}")  # fmt: skip
+            base = None
+            for variant, name in OUTBOX_VARIANTS.items():
+                r = run_outbox_workload(variant, every, accepted, Path(tmp))
+                base = base or r
+                fsyncs = "n/a" if r["fsyncs"] is None else f"{r['fsyncs']:9d}"
+                vs = "" if not base["fsyncs"] else f"{r['fsyncs'] / base['fsyncs']:14.1%}"
+                print(f"{name:52} {r['commits']:9d} {fsyncs:>9} {r['wchar'] / 1e6:10.2f} "
+                      f"{r['syscw']:9d} {r['wall']:6.2f} {vs:>14}")  # fmt: skip
+    if not shutil.which("strace"):
+        print("(fsyncs not counted: strace is not installed)")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m bench.edge", description=__doc__.split("\n")[0]
     )
     parser.add_argument("--duration", type=float, default=60.0, help="seconds measured (60)")
+    parser.add_argument(
+        "--outbox-only", action="store_true", help="only the outbox's writes (a few seconds)"
+    )
+    parser.add_argument("--outbox-workload", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.outbox_workload:
+        variant, every, accepted, path = args.outbox_workload
+        print(json.dumps(outbox_workload(variant, path, int(every), accepted == "1")))
+        return 0
+    if args.outbox_only:
+        outbox_report()
+        return 0
     with tempfile.TemporaryDirectory() as tmp:
         runs = [
             EdgeRun("edge client: HTTP + ETag, poll 2 s", 2.0, Path(tmp)),
@@ -299,6 +409,8 @@ def main(argv: list[str] | None = None) -> int:
             f"{per_hour(r['fixes'], r['wall']):8.0f} {total / base_total:8.0%}"
         )
     ok = all(r["rss"] <= TARGET_RSS_MB and r["cpu"] <= TARGET_CPU_PCT for r in results)
+    print()
+    outbox_report()
     print()
     print("targets met" if ok else "TARGETS MISSED")
     return 0 if ok else 1

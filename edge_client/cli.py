@@ -102,7 +102,11 @@ def run(config: Config, stop: threading.Event | None = None) -> int:
         for signum in (signal.SIGTERM, signal.SIGINT):
             signal.signal(signum, lambda *_: stop.set())
     try:
-        outbox = Outbox(config.outbox.path, max_fixes=config.outbox.max_fixes)
+        outbox = Outbox(
+            config.outbox.path,
+            max_fixes=config.outbox.max_fixes,
+            commit_every=config.outbox.commit_every,
+        )
     except Exception as exc:
         log.error("cannot open the outbox %s: %s", config.outbox.path, exc)
         return 1

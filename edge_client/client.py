@@ -11,8 +11,9 @@ Threads and what each owns:
   outbox, pings the systemd watchdog while the other threads are alive, and watches the stop
   flag that SIGTERM sets.
 
-Stopping flushes nothing: everything worth keeping is already committed in the outbox, so the
-shutdown only stops threads (an in-flight request is abandoned; its items stay queued).
+Stopping flushes almost nothing: acks and command records are committed at once, and fixes
+waiting for their group commit are committed when the outbox is closed, so the shutdown only
+stops threads (an in-flight request is abandoned; its items stay queued).
 """
 
 from __future__ import annotations

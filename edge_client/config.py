@@ -85,12 +85,19 @@ class CommandsConfig:
     arm_before_move: bool = True
     arm_timeout_s: float = 60.0
     acceptance_radius_m: float = 10.0
+    # After boot the autopilot may not be heard yet, and refuses modes that need a position
+    # (GUIDED, AUTO, RTL, ...) until its EKF has one: a command waits this long for each,
+    # retrying, before it fails.
+    ready_timeout_s: float = 120.0
 
 
 @dataclass(frozen=True)
 class OutboxConfig:
     path: str = "/var/lib/shoreside-edge/outbox.sqlite3"
     max_fixes: int = 100_000
+    # Fixes are committed (fsynced) in groups: at the latest once this many wait, and before
+    # each uplink round reads them. A power cut loses at most the fixes not committed yet.
+    commit_every: int = 10
 
 
 @dataclass(frozen=True)
@@ -390,8 +397,10 @@ def _check_positive(config: Config, source: str) -> None:
         "[telemetry] batch_size": config.telemetry.batch_size,
         "[commands] poll_period_s": config.commands.poll_period_s,
         "[commands] arm_timeout_s": config.commands.arm_timeout_s,
+        "[commands] ready_timeout_s": config.commands.ready_timeout_s,
         "[commands] acceptance_radius_m": config.commands.acceptance_radius_m,
         "[outbox] max_fixes": config.outbox.max_fixes,
+        "[outbox] commit_every": config.outbox.commit_every,
         "[transport] timeout_s": config.transport.timeout_s,
         "[transport.modem] baud": config.transport.modem.baud,
     }

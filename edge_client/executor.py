@@ -11,10 +11,15 @@ autopilot has accepted the command, then ``done`` or ``failed`` with a reason a 
 
 Kind → action (mission-files.md for the Rover modes):
 ``move_to`` GUIDED + SET_POSITION_TARGET_GLOBAL_INT, done within the acceptance radius;
-``hold`` HOLD; ``resume`` AUTO; ``return_home`` RTL; ``set_mode``; ``arm``/``disarm``;
+``hold`` HOLD; ``resume`` AUTO; ``return_home`` RTL, done within the acceptance radius of home
+(or when Rover says "Reached destination" and holds there); ``set_mode``; ``arm``/``disarm``;
 ``mission`` upload (home as item 0) then MISSION_SET_CURRENT 1 and AUTO, done when the last
 waypoint is reached (a looping mission is done once it is running). Commands that make the boat
 move arm it first when it is disarmed (``arm_before_move``), waiting out pre-arm checks.
+A command polled before the autopilot's first HEARTBEAT (the Pi and the server can be quicker
+than the autopilot after a power-up) waits for it, and a mode that needs a position is
+retried while the autopilot is still getting one; each wait lasts at most ``ready_timeout_s``
+(:meth:`Executor._wait_for_autopilot`, :meth:`Executor._mode_when_ready`).
 
 The parameter checks (:func:`validate`) are pure and tested on their own.
 """
@@ -39,7 +44,7 @@ from edge_client.catalog import (
     ROVER_MODES,
 )
 from edge_client.config import CommandsConfig
-from edge_client.mavlink_link import LinkDown, MavlinkLink
+from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
 from edge_client.mission import MAV_CMD_NAV_WAYPOINT, build_mission, result_name
 from edge_client.outbox import Outbox
 from edge_client.vehicle import CLOCK_SANE_AFTER
@@ -49,6 +54,14 @@ log = logging.getLogger(__name__)
 ACKNOWLEDGED, DONE, FAILED = "acknowledged", "done", "failed"
 # Modes in which Rover drives by itself: entering one arms first (when allowed).
 MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
+# Rover modes whose Mode::requires_position() is true (Rover/mode.h): refused until the EKF
+# has a position.
+POSITION_MODES = frozenset(
+    {"AUTO", "GUIDED", "LOITER", "FOLLOW", "CIRCLE", "DOCK", "RTL", "SMART_RTL"}
+)
+MODE_RETRY_S = 2.0  # between mode-change attempts while the autopilot gets its position
+HEARTBEAT_WAIT_S = 0.5  # between looks for the autopilot's HEARTBEAT
+RTL_ARRIVED = "Reached destination"  # Rover/mode_rtl.cpp STATUSTEXT; a boat then loiters there
 
 
 class CommandError(ValueError):
@@ -179,6 +192,9 @@ class Executor:
         outbox: Outbox,
         config: CommandsConfig,
         on_ack: Callable[[], None] | None = None,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], object] | None = None,
     ) -> None:
         self.link = link
         self.outbox = outbox
@@ -190,6 +206,8 @@ class Executor:
         self._known: set[str] = set()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self.clock = clock  # for the ready_timeout_s deadline; tests inject their own
+        self.sleep = sleep or self._stop.wait
 
     # -- lifecycle ----------------------------------------------------------------------------
 
@@ -259,6 +277,7 @@ class Executor:
                     raise CommandError(f"expired at {command.expires_at.isoformat()} before it ran")
             if command.kind in NAVIGATION_KINDS or command.kind == "disarm":
                 self._supersede(command)
+            self._wait_for_autopilot()
             getattr(self, f"_do_{command.kind}")(command, params)
         except CommandError as exc:
             self._ack(command, FAILED, str(exc))
@@ -295,11 +314,58 @@ class Executor:
         if self.on_ack:
             self.on_ack()
 
+    def _wait_for_autopilot(self) -> None:
+        """Wait up to ``ready_timeout_s`` for the autopilot to be heard (LinkDown after)."""
+        state, timeout = self.link.state, self.config.ready_timeout_s
+        deadline = self.clock() + timeout
+        while state.system is None or not state.autopilot_ok():
+            if self.clock() >= deadline or self._stop.is_set():
+                raise LinkDown(f"no HEARTBEAT from the autopilot within {timeout:g} s")
+            self.sleep(HEARTBEAT_WAIT_S)
+
     def _mode(self, name: str) -> str:
+        if name in POSITION_MODES:
+            return self._mode_when_ready(name)
         ok, detail = self.link.set_mode(name)
         if not ok:
             raise CommandError(detail)
         return detail
+
+    def _mode_when_ready(self, name: str) -> str:
+        """Enter a mode that needs a position, waiting out the autopilot's start-up.
+
+        After boot Rover refuses such modes ("Flight mode change failed") until its EKF has a
+        position, which can take a minute after the GPS fix; a command that arrives then must
+        not be thrown away.
+
+        1. Ask for the mode; accepted: done.
+        2. Refused while the vehicle's own reports (EKF_STATUS_REPORT, GPS_RAW_INT, SYS_STATUS,
+           GPS_GLOBAL_ORIGIN/HOME_POSITION: :meth:`VehicleState.position_ready`) say it has a
+           position: the refusal has another reason; fail now with it.
+        3. Otherwise wait, and ask again each ``MODE_RETRY_S`` once those reports no longer
+           say "not ready" (so Rover is not nagged while it plainly cannot).
+        4. At ``ready_timeout_s`` fail with the autopilot's STATUSTEXT and what was missing.
+        """
+        state = self.link.state
+        timeout = self.config.ready_timeout_s
+        deadline = self.clock() + timeout
+        while True:
+            ok, detail = self.link.set_mode(name)
+            if ok:
+                return detail
+            ready, why = state.position_ready()
+            if ready:
+                raise CommandError(detail)
+            log.info("%s; waiting for a position estimate: %s", detail, why)
+            while True:
+                if self.clock() >= deadline:
+                    raise CommandError(f"{detail}; not ready after {timeout:g} s: {why}")
+                if self._stop.is_set():
+                    raise CommandError(f"{detail}; edge client stopping: {why}")
+                self.sleep(MODE_RETRY_S)
+                ready, why = state.position_ready()
+                if ready is not False:
+                    break
 
     def _ensure_armed(self) -> None:
         if self.link.state.armed:
@@ -348,7 +414,34 @@ class Executor:
         self._simple_mode(command, "AUTO")
 
     def _do_return_home(self, command: Command, p: dict[str, Any]) -> None:
-        self._simple_mode(command, "RTL")
+        state = self.link.state
+        self.link.target()
+        self._ensure_armed()
+        if state.home is None:
+            self.link.request_message(HOME_POSITION_ID)  # its answer sets state.home
+        detail = self._mode("RTL")
+        said = state.statustext_count  # after the mode change: an older arrival is not ours
+        self._ack(command, ACKNOWLEDGED, detail)
+        radius = self.config.acceptance_radius_m
+        seen = ModeSeen("RTL")
+
+        def check() -> tuple[str, str] | None:
+            nonlocal said
+            home = state.home
+            distance = state.distance_to(*home) if home else None
+            if distance is not None and distance <= radius:
+                return DONE, f"home: arrived within {distance:.1f} m (radius {radius:g} m)"
+            # Count first: a text landing in between is seen twice rather than never.
+            count = state.statustext_count
+            heard, said = state.statustext_since(said), count
+            if RTL_ARRIVED in heard and state.mode == "RTL":
+                # Rover's RTL may end at a rally point, or home may still be unknown to us.
+                return DONE, "the autopilot reports it reached home and holds there"
+            if seen.left(state.mode):
+                return FAILED, f"mode changed to {state.mode} before reaching home"
+            return None
+
+        self.active = Active(command, check)
 
     def _do_set_mode(self, command: Command, p: dict[str, Any]) -> None:
         self._simple_mode(command, p["mode"])

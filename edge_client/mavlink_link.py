@@ -65,11 +65,16 @@ STREAMS = {
     "SYS_STATUS": 4,
     "MISSION_CURRENT": 4,
     "SYSTEM_TIME": 8,
+    # Position readiness after boot (VehicleState.position_ready).
+    "EKF_STATUS_REPORT": 4,
+    "GPS_RAW_INT": 4,
 }
 # REQUEST_DATA_STREAM groups for firmware without SET_MESSAGE_INTERVAL (MAV_DATA_STREAM_*).
 MAV_DATA_STREAM_EXTENDED_STATUS = 2
 MAV_DATA_STREAM_POSITION = 6
+MAV_DATA_STREAM_EXTRA3 = 12  # ArduPilot sends EKF_STATUS_REPORT in this group
 HOME_POSITION_ID = 242
+GPS_GLOBAL_ORIGIN_ID = 49
 MAILBOX_TYPES = frozenset(
     {
         "COMMAND_ACK",
@@ -229,10 +234,16 @@ class MavlinkLink:
 
     def _request_streams(self) -> None:
         """Ask for the messages we need: SET_MESSAGE_INTERVAL per message, the old
-        REQUEST_DATA_STREAM groups for firmware that predates it, and HOME_POSITION once."""
+        REQUEST_DATA_STREAM groups for firmware that predates it, and HOME_POSITION and
+        GPS_GLOBAL_ORIGIN once (ArduPilot also sends both by itself when they get set)."""
         system, component = self.state.system or 1, self.state.component
         rate = self.config.stream_rate_hz
-        for group, hz in ((MAV_DATA_STREAM_POSITION, rate), (MAV_DATA_STREAM_EXTENDED_STATUS, 1)):
+        groups = (
+            (MAV_DATA_STREAM_POSITION, rate),
+            (MAV_DATA_STREAM_EXTENDED_STATUS, 1),
+            (MAV_DATA_STREAM_EXTRA3, 1),
+        )
+        for group, hz in groups:
             self._send("request_data_stream", system, component, group, max(1, round(hz)), 1)
         wanted = dict(STREAMS)
         wanted.update({name: 4 for name in self._extra_streams})
@@ -256,19 +267,14 @@ class MavlinkLink:
                 0,
                 0,
             )
+        self.request_message(HOME_POSITION_ID)
+        self.request_message(GPS_GLOBAL_ORIGIN_ID)
+
+    def request_message(self, msg_id: int) -> None:
+        """MAV_CMD_REQUEST_MESSAGE, fire and forget (the answer goes to its handler)."""
+        system, component = self.state.system or 1, self.state.component
         self._send(
-            "command_long",
-            system,
-            component,
-            MAV_CMD_REQUEST_MESSAGE,
-            0,
-            HOME_POSITION_ID,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
+            "command_long", system, component, MAV_CMD_REQUEST_MESSAGE, 0, msg_id, 0, 0, 0, 0, 0, 0
         )
 
     # -- request/response (executor thread only) ---------------------------------------------
@@ -315,11 +321,16 @@ class MavlinkLink:
     def set_mode(self, name: str) -> tuple[bool, str]:
         """MAV_CMD_DO_SET_MODE with the Rover custom mode; True once the autopilot accepts it."""
         number = ROVER_MODES[name]
+        said = self.state.statustext_count
         result = self.command_long(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
         if result is None:
             return False, f"no COMMAND_ACK for mode {name}"
         if result != MAV_RESULT_ACCEPTED:
-            return False, f"autopilot refused mode {name}: {MAV_RESULTS.get(result, result)}"
+            # Rover says why in a STATUSTEXT sent before the COMMAND_ACK ("Flight mode change
+            # failed"); the reader thread ran its handler before the ack reached us.
+            reasons = "; ".join(dict.fromkeys(self.state.statustext_since(said)))
+            why = f" ({reasons})" if reasons else ""
+            return False, f"autopilot refused mode {name}: {MAV_RESULTS.get(result, result)}{why}"
         # ArduPilot acks only after the mode changed; the next HEARTBEAT (≤ 1 s) will agree.
         self.state.custom_mode = number
         return True, f"mode {name}"

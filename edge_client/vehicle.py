@@ -9,8 +9,9 @@ are atomic under the GIL); :meth:`VehicleState.fix` copies what it needs at once
 Message references (common.xml / ardupilotmega.xml): HEARTBEAT (base_mode bit
 MAV_MODE_FLAG_SAFETY_ARMED = 128, custom_mode = Rover mode number), GLOBAL_POSITION_INT
 (lat/lon degE7, vx/vy cm/s, hdg cdeg, 65535 = unknown), SYS_STATUS (voltage_battery mV,
-65535 = unknown), MISSION_CURRENT, MISSION_ITEM_REACHED, HOME_POSITION, SYSTEM_TIME,
-STATUSTEXT (pre-arm failure reasons).
+65535 = unknown; onboard_control_sensors_* bits), MISSION_CURRENT, MISSION_ITEM_REACHED,
+HOME_POSITION, GPS_GLOBAL_ORIGIN, SYSTEM_TIME, STATUSTEXT (pre-arm and mode-change failure
+reasons), GPS_RAW_INT (fix_type), EKF_STATUS_REPORT (flags, ardupilotmega.xml EKF_STATUS_FLAGS).
 """
 
 from __future__ import annotations
@@ -38,6 +39,14 @@ MAV_AUTOPILOT_INVALID = 8  # HEARTBEATs from GCSs and companions carry this; ign
 UINT16_UNKNOWN = 65535
 # Before this the Pi's clock has not been set (no RTC on a Pi Zero): trust the autopilot's.
 CLOCK_SANE_AFTER = datetime(2024, 1, 1, tzinfo=UTC).timestamp()
+# Position readiness, as Rover::ekf_position_ok() judges it for an armed vehicle:
+# EKF_STATUS_FLAGS (ardupilotmega.xml), GPS_FIX_TYPE (common.xml), MAV_SYS_STATUS_SENSOR bits.
+EKF_POS_HORIZ_REL = 8
+EKF_POS_HORIZ_ABS = 16
+EKF_CONST_POS_MODE = 128
+GPS_FIX_TYPE_3D_FIX = 3
+MAV_SYS_STATUS_SENSOR_GPS = 0x20
+MAV_SYS_STATUS_AHRS = 0x200000
 
 
 @dataclass
@@ -59,6 +68,11 @@ class VehicleState:
     gps_clock_offset_s: float | None = None  # autopilot UTC (SYSTEM_TIME) minus our clock
     readings: dict[str, float] = field(default_factory=dict)
     statustext: deque[str] = field(default_factory=lambda: deque(maxlen=20))
+    statustext_count: int = 0  # STATUSTEXTs ever received: "what came since" for a caller
+    ekf_flags: int | None = None  # EKF_STATUS_REPORT.flags
+    gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type
+    sensors_health: tuple[int, int] | None = None  # SYS_STATUS (enabled, health) bits
+    origin: tuple[float, float] | None = None  # GPS_GLOBAL_ORIGIN: the EKF origin is set
     last_heartbeat: float | None = None  # time.monotonic()
     position_at: float | None = None  # time.monotonic() of the last GLOBAL_POSITION_INT fix
     was_silent: bool = False
@@ -86,6 +100,38 @@ class VehicleState:
         if self.lat is None or self.lon is None:
             return None
         return distance_m(self.lat, self.lon, lat, lon)
+
+    def statustext_since(self, count: int) -> list[str]:
+        """The STATUSTEXTs received after ``statustext_count`` was ``count`` (at most 20)."""
+        texts = list(self.statustext)
+        return texts[len(texts) - min(len(texts), self.statustext_count - count) :]
+
+    def position_ready(self) -> tuple[bool | None, str]:
+        """Can the autopilot enter a mode that needs a position now? (yes/no/None, why).
+
+        Mirrors Rover::ekf_position_ok() for an armed vehicle: the EKF has a horizontal
+        position (absolute or relative) and is not in constant-position mode. Without
+        EKF_STATUS_REPORT (older firmware, or not streamed yet) the weaker signals decide: a
+        3D GPS fix, the AHRS health bit, an EKF origin or home. None: nothing to judge by.
+        """
+        if self.ekf_flags is not None:
+            if self.ekf_flags & EKF_CONST_POS_MODE:
+                return False, "EKF in constant-position mode (no position yet)"
+            if not self.ekf_flags & (EKF_POS_HORIZ_ABS | EKF_POS_HORIZ_REL):
+                return False, "EKF has no horizontal position yet"
+            return True, "EKF has a horizontal position"
+        if self.gps_fix_type is not None and self.gps_fix_type < GPS_FIX_TYPE_3D_FIX:
+            return False, f"no 3D GPS fix yet (GPS_RAW_INT fix_type {self.gps_fix_type})"
+        if self.sensors_health is not None:
+            enabled, health = self.sensors_health
+            for bit, name in ((MAV_SYS_STATUS_SENSOR_GPS, "GPS"), (MAV_SYS_STATUS_AHRS, "AHRS")):
+                if enabled & bit and not health & bit:
+                    return False, f"{name} not healthy yet (SYS_STATUS)"
+        if self.gps_fix_type is None and self.sensors_health is None:
+            return None, "the autopilot reports no EKF, GPS or sensor health status"
+        if self.origin is None and self.home is None:
+            return False, "no EKF origin or home yet"
+        return True, "GPS fix and healthy sensors"
 
     # -- handlers, one per message type ------------------------------------------------------
 
@@ -131,6 +177,17 @@ class VehicleState:
     def on_sys_status(self, msg: Any) -> None:
         if msg.voltage_battery != UINT16_UNKNOWN:
             self.battery_v = msg.voltage_battery / 1000.0
+        enabled = msg.onboard_control_sensors_enabled & msg.onboard_control_sensors_present
+        self.sensors_health = (enabled, msg.onboard_control_sensors_health)
+
+    def on_ekf_status_report(self, msg: Any) -> None:
+        self.ekf_flags = msg.flags
+
+    def on_gps_raw_int(self, msg: Any) -> None:
+        self.gps_fix_type = msg.fix_type
+
+    def on_gps_global_origin(self, msg: Any) -> None:
+        self.origin = (msg.latitude / 1e7, msg.longitude / 1e7)
 
     def on_mission_current(self, msg: Any) -> None:
         self.mission_seq = msg.seq
@@ -148,6 +205,7 @@ class VehicleState:
     def on_statustext(self, msg: Any) -> None:
         text = msg.text if isinstance(msg.text, str) else msg.text.decode("ascii", "replace")
         self.statustext.append(text.rstrip("\x00"))
+        self.statustext_count += 1
         log.info("autopilot says: %s", text)
 
     def reading_handler(self, source: ReadingSource) -> Callable[[Any], None]:
@@ -168,6 +226,9 @@ class VehicleState:
             "HOME_POSITION": [self.on_home_position],
             "SYSTEM_TIME": [self.on_system_time],
             "STATUSTEXT": [self.on_statustext],
+            "EKF_STATUS_REPORT": [self.on_ekf_status_report],
+            "GPS_RAW_INT": [self.on_gps_raw_int],
+            "GPS_GLOBAL_ORIGIN": [self.on_gps_global_origin],
         }
         for source in readings:
             table.setdefault(source.message, []).append(self.reading_handler(source))

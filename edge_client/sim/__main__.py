@@ -39,6 +39,13 @@ def main(argv: list[str] | None = None) -> int:
         help="seconds after start before pre-arm checks pass",
     )
     p.add_argument(
+        "--position-delay",
+        type=float,
+        default=0.0,
+        help="seconds after start before the EKF has a position (GPS fix at half of it); "
+        "until then, armed, modes that need a position are refused (a real Rover: 30-60)",
+    )
+    p.add_argument(
         "--request-int",
         action="store_true",
         help="request upload items with MISSION_REQUEST_INT (default: MISSION_REQUEST)",
@@ -71,7 +78,8 @@ def main(argv: list[str] | None = None) -> int:
     sim = RoverSim(
         args.listen or ["udpin:127.0.0.1:14550"],
         lat=args.lat, lon=args.lon, speed_mps=args.speed, rate_hz=args.rate,
-        prearm_delay_s=args.prearm_delay, request_int=args.request_int, drop=args.drop,
+        prearm_delay_s=args.prearm_delay, position_delay_s=args.position_delay,
+        request_int=args.request_int, drop=args.drop,
         dup=args.dup, refuse_modes=tuple(args.refuse_mode), reject_mission=args.reject_mission,
         seed=args.seed,
     )  # fmt: skip

@@ -14,9 +14,17 @@ mission-files.md, mavlink.io common.xml), not like a physics model:
 - COMMAND_LONG: DO_SET_MODE (COMMAND_ACK; AUTO refused without a mission), COMPONENT_ARM_DISARM
   (pre-arm checks fail with a "PreArm:" STATUSTEXT until ``prearm_delay_s`` after start),
   DO_SET_MISSION_CURRENT; MISSION_SET_CURRENT; SET_POSITION_TARGET_GLOBAL_INT in GUIDED.
+- Start-up: the GPS gets its 3D fix, the EKF origin and home are set (GPS_GLOBAL_ORIGIN and
+  HOME_POSITION are sent) at half ``position_delay_s``; the EKF's horizontal position is good
+  only at ``position_delay_s``. Until then, while armed, a change to a mode that needs a position
+  is refused as Rover does (Rover/mode.cpp ``Mode::enter``: ``requires_position()`` and not
+  ``ekf_position_ok()``; disarmed, Rover skips the check): STATUSTEXT "Flight mode change failed"
+  and COMMAND_ACK FAILED. Readiness shows in EKF_STATUS_REPORT flags (CONST_POS_MODE, then
+  POS_HORIZ_ABS), GPS_RAW_INT fix_type and SYS_STATUS health bits (GPS, AHRS).
 - Motion at ``speed_mps`` toward the GUIDED target, along the mission in AUTO (NAV_WAYPOINT with
   hold time and acceptance radius, DO_JUMP with repeat counts, MISSION_ITEM_REACHED, HOLD at the
-  end), home in RTL/SMART_RTL; only when armed.
+  end), home in RTL/SMART_RTL ("Reached destination" on arrival, then it stays in the mode and
+  holds there, as a boat loiters); only when armed.
 - Fault injection: ``drop`` / ``dup`` probabilities for messages (drop applies both ways),
   ``refuse_modes`` (COMMAND_ACK DENIED), ``reject_mission`` (MISSION_ACK with that code after
   the last item), ``muted`` (stops talking, as a silent autopilot).
@@ -51,6 +59,18 @@ UPLOAD_GIVE_UP_S = 8.0
 GLOBAL_FRAMES = {0, 3, 5, 6, 10, 11}  # MAV_FRAME_GLOBAL*, incl. the deprecated _INT variants
 NAV_WAYPOINT, NAV_RTL, DO_JUMP = 16, 20, 177
 DEFAULT_WP_RADIUS_M = 2.0  # ArduPilot Rover WP_RADIUS default
+# Modes whose Mode::requires_position() is true in Rover (mode.h).
+POSITION_MODES = {"AUTO", "GUIDED", "LOITER", "FOLLOW", "RTL", "SMART_RTL"}
+# EKF_STATUS_REPORT flags (ardupilotmega.xml EKF_STATUS_FLAGS) before and after the EKF has a
+# horizontal position; SYS_STATUS sensor bits (common.xml MAV_SYS_STATUS_SENSOR).
+EKF_STARTING = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_CONST_POS_MODE
+                | mavlink.EKF_PRED_POS_HORIZ_REL)  # fmt: skip
+EKF_POSITION_OK = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_VELOCITY_VERT
+                   | mavlink.EKF_POS_HORIZ_REL | mavlink.EKF_POS_HORIZ_ABS
+                   | mavlink.EKF_POS_VERT_ABS | mavlink.EKF_PRED_POS_HORIZ_REL
+                   | mavlink.EKF_PRED_POS_HORIZ_ABS)  # fmt: skip
+SENSORS = mavlink.MAV_SYS_STATUS_SENSOR_GPS | mavlink.MAV_SYS_STATUS_AHRS
+GPS_FIX_NONE, GPS_FIX_3D = 1, 3
 
 
 @dataclass
@@ -79,6 +99,7 @@ class RoverSim:
         speed_mps: float = 2.0,
         rate_hz: float = 4.0,
         prearm_delay_s: float = 20.0,
+        position_delay_s: float = 0.0,
         request_int: bool = False,
         drop: float = 0.0,
         dup: float = 0.0,
@@ -114,6 +135,9 @@ class RoverSim:
         self.reject_mission = reject_mission
         self.max_items = max_items
         self.prearm_delay_s = prearm_delay_s
+        self.position_delay_s = position_delay_s  # a test may lower it to make the EKF ready
+        self._home_announced = False
+        self.rtl_arrived = False
         self.muted = False
         self.rng = random.Random(seed)
         self.boot = time.monotonic()
@@ -124,9 +148,12 @@ class RoverSim:
             mavlink.MAVLINK_MSG_ID_SYSTEM_TIME: 1.0,
             mavlink.MAVLINK_MSG_ID_SCALED_PRESSURE: 1.0,
             mavlink.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
+            mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0,
+            mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
         }
         self.last_sent: dict[int, float] = {}
         self.upload: dict[str, Any] | None = None  # in-progress upload
+        self.uploaded: dict[str, Any] | None = None  # the last finished one, to re-ack
         self.peers: dict[int, tuple[int, int]] = {}
         self.counts = {"sent": 0, "dropped": 0, "duplicated": 0, "received": 0}
         self._last_step = time.monotonic()
@@ -161,6 +188,14 @@ class RoverSim:
 
     def boot_ms(self) -> int:
         return int((time.monotonic() - self.boot) * 1000)
+
+    def gps_fixed(self, now: float) -> bool:
+        """GPS 3D fix, EKF origin and home set: half way to a good position estimate."""
+        return now - self.boot >= self.position_delay_s / 2
+
+    def position_ok(self, now: float) -> bool:
+        """Rover's ``ekf_position_ok()`` for an armed vehicle."""
+        return now - self.boot >= self.position_delay_s
 
     # -- sending with fault injection ---------------------------------------------------------
 
@@ -226,13 +261,29 @@ class RoverSim:
                 0,
                 int(self.heading * 100) % 36000,
             )
+        if self.gps_fixed(now) and not self._home_announced:
+            # AP_AHRS::set_home sends the new home and EKF origin to every GCS.
+            self._home_announced = True
+            self._send_home(None)
+            self._send_origin(None)
+        if self._due(mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT, now):
+            flags = EKF_POSITION_OK if self.position_ok(now) else EKF_STARTING
+            self._emit(None, "ekf_status_report", flags, 0.1, 0.1, 0.1, 0.1, 0.0)
+        if self._due(mavlink.MAVLINK_MSG_ID_GPS_RAW_INT, now):
+            fix = GPS_FIX_3D if self.gps_fixed(now) else GPS_FIX_NONE
+            lat, lon = (int(self.lat * 1e7), int(self.lon * 1e7)) if fix == GPS_FIX_3D else (0, 0)
+            self._emit(None, "gps_raw_int", int(time.time() * 1e6), fix, lat, lon, 0, 120, 200,
+                       0, 0, 10 if fix == GPS_FIX_3D else 0)  # fmt: skip
         if self._due(mavlink.MAVLINK_MSG_ID_SYS_STATUS, now):
+            healthy = (mavlink.MAV_SYS_STATUS_SENSOR_GPS if self.gps_fixed(now) else 0) | (
+                mavlink.MAV_SYS_STATUS_AHRS if self.position_ok(now) else 0
+            )
             self._emit(
                 None,
                 "sys_status",
-                0,
-                0,
-                0,
+                SENSORS,
+                SENSORS,
+                healthy,
                 100,
                 int(self.battery_v * 1000),
                 150,
@@ -267,6 +318,11 @@ class RoverSim:
             0,
         )
 
+    def _send_origin(self, conn: Any) -> None:
+        lat, lon = self.home
+        self._emit(conn, "gps_global_origin", int(lat * 1e7), int(lon * 1e7), 0,
+                   int(time.time() * 1e6))  # fmt: skip
+
     # -- motion -------------------------------------------------------------------------------
 
     def _drive_to(self, lat: float, lon: float, dt: float) -> float:
@@ -297,7 +353,10 @@ class RoverSim:
         elif name == "AUTO":
             self._auto(dt, now)
         elif name in ("RTL", "SMART_RTL"):
-            self._drive_to(*self.home, dt)
+            left = self._drive_to(*self.home, dt)
+            if left <= DEFAULT_WP_RADIUS_M and not self.rtl_arrived:
+                self.rtl_arrived = True  # Rover/mode_rtl.cpp: once, then a boat loiters there
+                self.statustext(None, "Reached destination", 6)
         else:
             self.vn = self.ve = 0.0
 
@@ -324,6 +383,7 @@ class RoverSim:
             break
         if item.command == NAV_RTL:
             self.mode = MODES["RTL"]
+            self.rtl_arrived = False
             return
         if self.hold_until is not None:
             self.vn = self.ve = 0.0
@@ -368,7 +428,7 @@ class RoverSim:
     def _on_command_long(self, conn: Any, msg: Any, now: float) -> None:
         c = msg.command
         if c == mavlink.MAV_CMD_DO_SET_MODE:
-            self._ack(conn, c, self._set_mode(conn, int(msg.param2)))
+            self._ack(conn, c, self._set_mode(conn, int(msg.param2), now))
         elif c == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
             self._ack(conn, c, self._arm(conn, msg.param1 >= 0.5, now))
         elif c == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
@@ -380,12 +440,17 @@ class RoverSim:
             self._ack(conn, c, mavlink.MAV_RESULT_ACCEPTED)
         elif c in (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_CMD_GET_HOME_POSITION):
             wanted = int(msg.param1) if c == mavlink.MAV_CMD_REQUEST_MESSAGE else 242
-            ok = wanted == mavlink.MAVLINK_MSG_ID_HOME_POSITION
-            self._ack(
-                conn, c, mavlink.MAV_RESULT_ACCEPTED if ok else mavlink.MAV_RESULT_UNSUPPORTED
-            )
-            if ok:
-                self._send_home(conn)
+            senders = {
+                mavlink.MAVLINK_MSG_ID_HOME_POSITION: self._send_home,
+                mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self._send_origin,
+            }
+            if wanted not in senders:
+                self._ack(conn, c, mavlink.MAV_RESULT_UNSUPPORTED)
+            elif not self.gps_fixed(now):
+                self._ack(conn, c, mavlink.MAV_RESULT_FAILED)  # no home/origin yet
+            else:
+                self._ack(conn, c, mavlink.MAV_RESULT_ACCEPTED)
+                senders[wanted](conn)
         elif c == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT:
             ok = 0 <= int(msg.param1) < len(self.mission)
             if ok:
@@ -395,15 +460,18 @@ class RoverSim:
             self._ack(conn, c, mavlink.MAV_RESULT_UNSUPPORTED)
 
     def _on_set_mode(self, conn: Any, msg: Any, now: float) -> None:
-        self._set_mode(conn, msg.custom_mode)  # SET_MODE has no ack of its own
+        self._set_mode(conn, msg.custom_mode, now)  # SET_MODE has no ack of its own
 
-    def _set_mode(self, conn: Any, number: int) -> int:
+    def _set_mode(self, conn: Any, number: int, now: float) -> int:
         name = MODE_NAMES.get(number)
         if name is None:
             return mavlink.MAV_RESULT_FAILED
         if name in self.refuse_modes:
             self.statustext(conn, f"Mode change to {name} refused")
             return mavlink.MAV_RESULT_DENIED
+        if self.armed and name in POSITION_MODES and not self.position_ok(now):
+            self.statustext(conn, "Flight mode change failed")  # Rover::set_mode
+            return mavlink.MAV_RESULT_FAILED
         if name == "AUTO" and len(self.mission) <= 1:
             self.statustext(conn, "AutoMode: no mission")
             return mavlink.MAV_RESULT_FAILED
@@ -411,6 +479,8 @@ class RoverSim:
             self.current = 1
         if name == "GUIDED":
             self.target = None  # Rover holds position until given a target
+        if name in ("RTL", "SMART_RTL"):
+            self.rtl_arrived = False
         self.mode = number
         return mavlink.MAV_RESULT_ACCEPTED
 
@@ -458,6 +528,7 @@ class RoverSim:
             self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
             return
         self.upload = {"conn": conn, "count": msg.count, "items": [], "started": now}
+        self.uploaded = None
         self._request_next(now)
 
     def _request_next(self, now: float) -> None:
@@ -502,6 +573,12 @@ class RoverSim:
             )
             return
         up = self.upload
+        done = self.uploaded
+        if up is None and done and done["conn"] is conn and msg.seq == done["count"] - 1:
+            # The last item again: our MISSION_ACK was lost. Say it again (PX4 does, PR #9547)
+            # rather than leave the sender retrying into a cancelled upload.
+            self._mission_ack(conn, done["code"])
+            return
         if up is None or up["conn"] is not conn:
             return
         if msg.seq != len(up["items"]):
@@ -539,11 +616,11 @@ class RoverSim:
             self._request_next(now)
             return
         self.upload = None
-        if self.reject_mission is not None:
-            self._mission_ack(conn, self.reject_mission)
-            return
-        self.mission, self.current, self.jumps = up["items"], 0, {}
-        self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
+        code = mavlink.MAV_MISSION_ACCEPTED if self.reject_mission is None else self.reject_mission
+        self.uploaded = {"conn": conn, "count": up["count"], "code": code}
+        if code == mavlink.MAV_MISSION_ACCEPTED:
+            self.mission, self.current, self.jumps = up["items"], 0, {}
+        self._mission_ack(conn, code)
 
     # Download: vehicle → GCS -----------------------------------------------------------------
 

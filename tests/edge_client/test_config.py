@@ -22,10 +22,12 @@ period_s = 2
 [commands]
 poll_period_s = 15
 arm_before_move = false
+ready_timeout_s = 45
 
 [outbox]
 path = "/tmp/x.sqlite3"
 max_fixes = 500
+commit_every = 30
 
 [transport]
 kind = "modem"
@@ -53,7 +55,8 @@ def test_it_reads_every_table(tmp_path):
     assert config.mavlink.baud == 115200
     assert config.telemetry.period_s == 2.0
     assert config.commands.arm_before_move is False
-    assert config.outbox.max_fixes == 500
+    assert config.commands.ready_timeout_s == 45.0
+    assert config.outbox.max_fixes == 500 and config.outbox.commit_every == 30
     assert config.transport.kind == "modem"
     assert config.transport.modem.port == "/dev/ttyUSB1"
     assert config.transport.modem.trigger == "don"
@@ -104,6 +107,10 @@ def test_key_comes_from_key_file_or_environment(tmp_path, monkeypatch):
         ('[server]\nurl = "http://h"\nkey = "k"\n[mavlink]\nbaud = true\n', "expected int"),
         ('[server]\nurl = "http://h"\nkey = "k"\n[telemetry]\nperiod_s = 0\n', "greater than zero"),
         ('[server]\nurl = "http://h"\nkey = "k"\n[transport]\nkind = "smoke"\n', "not one of"),
+        (
+            '[server]\nurl = "http://h"\nkey = "k"\n[commands]\nready_timeout_s = -1\n',
+            "ready_timeout_s must be greater than zero",
+        ),
         (
             '[server]\nurl = "http://h"\nkey = "k"\n[commands]\narm_before_move = "yes"\n',
             "true or false",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 import uuid
 
@@ -11,9 +12,25 @@ from edge_client.config import CommandsConfig, MavlinkConfig
 from edge_client.executor import Command, CommandError, Executor, validate
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Outbox
+from tests.edge_client.conftest import free_port
+from tests.edge_client.helpers import wait_until
 
 START = (-31.98, 115.82)
 NEAR = (-31.979, 115.8205)  # ~120 m from START
+NEVER = 1e9  # a simulator position_delay_s that a test lowers to 0 when it wants the EKF ready
+
+
+class FakeClock:
+    """An injected monotonic clock whose sleep() moves time on instead of waiting."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
 
 
 def cmd(kind: str, **params) -> Command:
@@ -97,11 +114,33 @@ def test_commands_interrupted_by_a_restart_are_failed_with_the_reason(outbox, co
 
 def test_without_an_autopilot_a_command_fails_with_the_reason(outbox, commands_config):
     link = MavlinkLink(MavlinkConfig(connection="udpout:127.0.0.1:9"))
-    executor = Executor(link, outbox, commands_config)
+    clock = FakeClock()
+    executor = Executor(link, outbox, commands_config, clock=clock, sleep=clock.sleep)
     c = cmd("move_to", lat=1.0, lon=2.0)
     executor.execute(c)
-    ((status, detail),) = acks(outbox, c.uid)
-    assert status == "failed" and "autopilot not reachable" in detail
+    assert acks(outbox, c.uid) == [
+        ("failed", "autopilot not reachable: no HEARTBEAT from the autopilot within 120 s")
+    ]
+    assert 1120 <= clock.now < 1121  # it waited ready_timeout_s for one
+
+
+def test_a_command_polled_before_the_autopilot_is_heard_waits_for_it(
+    make_sim, outbox, commands_config
+):
+    port = free_port()
+    link = MavlinkLink(MavlinkConfig(connection=f"udpout:127.0.0.1:{port}", stream_rate_hz=10))
+    link.start()
+    try:
+        executor = Executor(link, outbox, commands_config)
+        c = cmd("hold")
+        running = threading.Thread(target=executor.execute, args=(c,))
+        running.start()
+        wait_until(lambda: executor.executed == [c.uid], 5, "the command to start")
+        make_sim(port=port)  # the autopilot finishes booting
+        running.join(15)
+        assert statuses(outbox, c.uid) == ["acknowledged", "done"], acks(outbox, c.uid)
+    finally:
+        link.stop()
 
 
 # -- against the simulator ------------------------------------------------------------------------
@@ -151,6 +190,7 @@ def test_hold_resume_return_home_set_mode_arm_disarm(make_sim, make_link, outbox
     for command, mode in [(cmd("hold"), "HOLD"), (cmd("return_home"), "RTL"),
                           (cmd("set_mode", mode="MANUAL"), "MANUAL")]:  # fmt: skip
         executor.execute(command)
+        run_until_settled(executor)  # return_home: done on arrival (it is already home)
         assert statuses(outbox, command.uid) == ["acknowledged", "done"], acks(outbox, command.uid)
         assert sim.sim.mode_name == mode
     disarm = cmd("disarm")
@@ -162,13 +202,114 @@ def test_hold_resume_return_home_set_mode_arm_disarm(make_sim, make_link, outbox
     assert status == "failed" and "refused mode AUTO" in detail
 
 
+def test_return_home_is_done_on_arrival_not_when_rtl_is_accepted(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    away = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    executor.execute(away)
+    run_until_settled(executor)
+    assert link.state.home == START
+    c = cmd("return_home")
+    executor.execute(c)
+    assert statuses(outbox, c.uid) == ["acknowledged"] and sim.sim.mode_name == "RTL"
+    run_until_settled(executor)
+    status, detail = acks(outbox, c.uid)[-1]
+    # Whichever comes first: our position within the radius, or Rover's "Reached destination"
+    # (our position lags it by up to one GLOBAL_POSITION_INT, 10 m at 100 m/s).
+    assert status == "done" and ("home: arrived within" in detail or "reached home" in detail)
+    wait_until(lambda: link.state.distance_to(*START) < 3, 5, "the position at home")
+
+
+def test_return_home_without_a_known_home_is_done_when_rover_says_it_arrived(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    executor.execute(cmd("move_to", lat=NEAR[0], lon=NEAR[1]))
+    run_until_settled(executor)
+    link.on("HOME_POSITION", lambda msg: setattr(link.state, "home", None))  # it never arrives
+    link.state.home = None
+    c = cmd("return_home")
+    executor.execute(c)
+    run_until_settled(executor)
+    assert acks(outbox, c.uid)[-1] == (
+        "done", "the autopilot reports it reached home and holds there"
+    )  # fmt: skip
+    assert sim.sim.mode_name == "RTL"
+    # Our position lags the STATUSTEXT by up to one GLOBAL_POSITION_INT (10 m at 100 m/s).
+    wait_until(lambda: link.state.distance_to(*START) < 3, 5, "the position at home")
+
+
+def test_return_home_fails_if_the_mode_changes_before_arrival(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    executor.execute(cmd("move_to", lat=NEAR[0], lon=NEAR[1]))
+    run_until_settled(executor)
+    c = cmd("return_home")
+    executor.execute(c)
+    sim.sim.mode = 0  # someone on the radio takes over: MANUAL
+    run_until_settled(executor)
+    assert acks(outbox, c.uid)[-1] == ("failed", "mode changed to MANUAL before reaching home")
+
+
 def test_a_refused_mode_change_fails_the_command(make_sim, make_link, outbox, commands_config):
     sim = make_sim(refuse_modes=("LOITER",))
     link = make_link(sim.endpoint)
     executor = Executor(link, outbox, commands_config)
+    wait_until(lambda: link.state.position_ready()[0], 5, "the EKF report")
     c = cmd("set_mode", mode="LOITER")
     executor.execute(c)
-    assert acks(outbox, c.uid) == [("failed", "autopilot refused mode LOITER: DENIED")]
+    # Refused although the autopilot has a position: no waiting, and its reason is given.
+    assert acks(outbox, c.uid) == [
+        ("failed", "autopilot refused mode LOITER: DENIED (Mode change to LOITER refused)")
+    ]
+
+
+def test_a_move_to_sent_while_the_autopilot_gets_its_position_waits_for_it(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim(prearm_delay_s=0, position_delay_s=NEVER)
+    link = make_link(sim.endpoint)
+    wait_until(lambda: link.state.position_ready()[0] is False, 5, "an EKF report, not ready")
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    running = threading.Thread(target=executor.execute, args=(c,))
+    running.start()
+    wait_until(lambda: "Flight mode change failed" in link.state.statustext, 5, "a refusal")
+    assert sim.sim.armed and sim.sim.mode_name == "HOLD"
+    assert acks(outbox, c.uid) == []  # refused, but not given up
+    sim.sim.position_delay_s = 0  # the EKF converges
+    running.join(15)
+    assert statuses(outbox, c.uid) == ["acknowledged"] and sim.sim.mode_name == "GUIDED"
+    run_until_settled(executor)
+    assert statuses(outbox, c.uid) == ["acknowledged", "done"]
+
+
+def test_the_wait_for_a_position_ends_at_the_deadline_with_the_autopilots_reason(
+    make_sim, make_link, outbox
+):
+    sim = make_sim(prearm_delay_s=0, position_delay_s=NEVER)
+    link = make_link(sim.endpoint)
+    wait_until(lambda: link.state.position_ready()[0] is False, 5, "an EKF report, not ready")
+    clock = FakeClock()
+    config = CommandsConfig(arm_timeout_s=5, ready_timeout_s=90)
+    executor = Executor(link, outbox, config, clock=clock, sleep=clock.sleep)
+    c = cmd("return_home")
+    executor.execute(c)
+    ((status, detail),) = acks(outbox, c.uid)
+    assert status == "failed"
+    assert detail == (
+        "autopilot refused mode RTL: FAILED (Flight mode change failed); not ready after 90 s: "
+        "EKF in constant-position mode (no position yet)"
+    )
+    assert 1090 <= clock.now <= 1095 and sim.sim.mode_name == "HOLD"
 
 
 def test_a_newer_navigation_command_replaces_the_active_one(

@@ -59,6 +59,7 @@ class Rig:
             ["-m", "edge_client.sim", "--listen", f"udpin:127.0.0.1:{self.sim_port}",
              "--listen", f"udpin:127.0.0.1:{self.observer_port}", "--lat", str(HOME[0]),
              "--lon", str(HOME[1]), "--speed", "50", "--rate", "10", "--prearm-delay", "1",
+             "--position-delay", "1",
              *extra],
             self.tmp / "sim.log",
         ))  # fmt: skip
@@ -120,6 +121,23 @@ def test_move_to_end_to_end(live_server, boat, rig):
         10, "a fix at the target",
     )  # fmt: skip
     assert stop(rig.edge) == 0
+
+
+def test_a_command_waiting_when_the_boat_boots_is_carried_out(live_server, boat, rig):
+    """The field report: queued before the boat starts, the autopilot not ready to take GUIDED
+    for its first seconds; the client waits for the position instead of failing the command."""
+    vessel, key = boat
+    target = (-31.9795, 115.8205)
+    command = command_enqueue(
+        vessel=vessel,
+        kind="move_to",
+        params={"lat": target[0], "lon": target[1]},
+        created_by="test",
+    )
+    rig.sim("--position-delay", "5")  # the last flag wins over the rig's 1 s
+    rig.client(live_server.url, key)
+    wait_until(lambda: command_status(command) in ("done", "failed"), 40, "move_to to finish")
+    assert command.status == "done", (command.result_detail, rig.log()[-3000:])
 
 
 FIVE = [

@@ -93,7 +93,7 @@ def test_old_finished_commands_are_forgotten(outbox):
 WRITER = """
 import sys
 from edge_client.outbox import Outbox
-box = Outbox(sys.argv[1], max_fixes=200)
+box = Outbox(sys.argv[1], max_fixes=200, commit_every=int(sys.argv[2]))
 print("open", flush=True)
 n = 0
 while True:
@@ -104,11 +104,11 @@ while True:
 """
 
 
-@pytest.mark.parametrize("delay", [0.05, 0.2, 0.5])
-def test_killing_the_process_mid_write_corrupts_nothing(tmp_path, delay):
+@pytest.mark.parametrize(("delay", "commit_every"), [(0.05, 1), (0.2, 1), (0.5, 1), (0.2, 5)])
+def test_killing_the_process_mid_write_corrupts_nothing(tmp_path, delay, commit_every):
     path = tmp_path / "o.sqlite3"
-    proc = subprocess.Popen([sys.executable, "-c", WRITER, str(path)], stdout=subprocess.PIPE,
-                            cwd=os.getcwd())  # fmt: skip
+    proc = subprocess.Popen([sys.executable, "-c", WRITER, str(path), str(commit_every)],
+                            stdout=subprocess.PIPE, cwd=os.getcwd())  # fmt: skip
     assert proc.stdout.readline() == b"open\n"
     time.sleep(delay)
     os.kill(proc.pid, signal.SIGKILL)
@@ -152,3 +152,110 @@ def test_settle_drops_rejected_fixes_with_their_errors():
 def test_settle_keeps_everything_when_the_answer_does_not_add_up(answer):
     s = settle_fix_batch([11, 12], answer)
     assert s.remove == () and s.keep_reason
+
+
+# -- group commits ---------------------------------------------------------------------------
+
+
+def on_disk(path) -> dict[str, int]:
+    """What another process (or the box after a power cut) would find: committed rows only."""
+    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    try:
+        return dict(db.execute("SELECT kind, COUNT(*) FROM outbox GROUP BY kind").fetchall())
+    finally:
+        db.close()
+
+
+def test_fixes_are_committed_in_groups_and_before_they_are_read_to_be_sent(tmp_path):
+    path = tmp_path / "o.sqlite3"
+    box = Outbox(path, commit_every=5)
+    for n in range(4):
+        box.add_fix(fix(n))
+    assert on_disk(path) == {} and box.count("fix") == 4 == box.count()
+    box.add_fix(fix(4))
+    assert on_disk(path) == {"fix": 5}
+    box.add_fix(fix(5))
+    box.add_fix(fix(6))
+    assert on_disk(path) == {"fix": 5}
+    assert [i.body["time"] - 1_700_000_000 for i in box.peek("fix", 10)] == list(range(7))
+    assert on_disk(path) == {"fix": 7}  # nothing is sent before it is on disk
+    assert box.counter("recorded_fixes") == 7
+    box.close()
+
+
+def test_an_ack_or_a_command_claim_takes_the_waiting_fixes_along(tmp_path):
+    path = tmp_path / "o.sqlite3"
+    box = Outbox(path, commit_every=100)
+    box.add_fix(fix(1))
+    box.add_ack("u1", "acknowledged")
+    assert on_disk(path) == {"fix": 1, "ack": 1}
+    box.add_fix(fix(2))
+    box.command_claim("u2", "hold")
+    assert on_disk(path) == {"fix": 2, "ack": 1}
+    box.close()
+
+
+def test_a_clean_close_commits_the_waiting_fixes(tmp_path):
+    path = tmp_path / "o.sqlite3"
+    box = Outbox(path, commit_every=100)
+    for n in range(3):
+        box.add_fix(fix(n))
+    box.close()
+    reopened = Outbox(path)
+    assert [i.body for i in reopened.peek("fix", 10)] == [fix(0), fix(1), fix(2)]
+    assert reopened.counter("recorded_fixes") == 3
+    reopened.close()
+
+
+def test_grouped_fixes_are_still_bounded_and_evictions_counted(tmp_path):
+    box = Outbox(tmp_path / "o.sqlite3", max_fixes=10, commit_every=4)
+    for n in range(25):
+        box.add_fix(fix(n))
+    assert [i.body["time"] - 1_700_000_000 for i in box.peek("fix", 100)] == list(range(15, 25))
+    assert box.counter("evicted_fixes") == 15
+    box.close()
+
+
+def synced_transactions(box: Outbox) -> list[tuple[str, str]]:
+    """Trace the box's connection: (synchronous level at COMMIT, the first statement's first
+    three words) for each transaction committed."""
+    level, first, seen = box._synchronous, None, []
+
+    def trace(sql: str) -> None:
+        nonlocal level, first
+        sql = " ".join(sql.split())
+        if sql.startswith("PRAGMA synchronous="):
+            level = sql.split("=")[1]
+        elif sql.startswith("BEGIN"):
+            first = None
+        elif sql == "COMMIT":
+            seen.append((level, first))
+        elif first is None:
+            first = " ".join(sql.split()[:3])
+
+    box._db.set_trace_callback(trace)
+    return seen
+
+
+def test_what_carries_a_promise_is_fsynced_and_the_rest_is_not(tmp_path):
+    """synchronous=FULL (an fsync of the WAL) for fixes, acks and command records; NORMAL
+    (no fsync; a power cut may undo it, and the fix is only sent again) for the rest."""
+    box = Outbox(tmp_path / "o.sqlite3", commit_every=3)
+    seen = synced_transactions(box)
+    for n in range(3):
+        box.add_fix(fix(n))
+    box.add_ack("u1", "done")
+    box.command_claim("u1", "hold")
+    box.command_finish("u1")
+    box.remove([i.id for i in box.peek("fix", 10)])
+    box.bump("rejected_fixes")
+    assert seen == [
+        ("FULL", "INSERT INTO outbox"),
+        ("FULL", "INSERT INTO outbox"),
+        ("FULL", "INSERT OR IGNORE"),
+        ("FULL", "UPDATE commands SET"),
+        ("NORMAL", "DELETE FROM outbox"),
+        ("NORMAL", "INSERT INTO counters"),
+    ]
+    assert box._db.execute("PRAGMA synchronous").fetchone() == (1,)  # NORMAL between them
+    box.close()

@@ -57,6 +57,17 @@ def test_a_lost_item_is_requested_again(gcs):
     assert first.seq == again.seq == 0
 
 
+def test_the_last_item_sent_again_is_acked_again(gcs):
+    _, conn, expect = gcs()
+    conn.mav.mission_count_send(1, 1, 1)
+    assert expect("MISSION_REQUEST").seq == 0
+    item = (1, 1, 0, m.MAV_FRAME_GLOBAL, 16, 0, 1, 0, 0, 0, 0, -319800000, 1158200000, 0)
+    conn.mav.mission_item_int_send(*item)
+    assert expect("MISSION_ACK").type == m.MAV_MISSION_ACCEPTED
+    conn.mav.mission_item_int_send(*item)  # as if that MISSION_ACK had been lost
+    assert expect("MISSION_ACK").type == m.MAV_MISSION_ACCEPTED
+
+
 def test_too_many_items_is_no_space(gcs):
     _, conn, expect = gcs(max_items=3)
     conn.mav.mission_count_send(1, 1, 10)
@@ -90,6 +101,79 @@ def test_prearm_checks_pass_only_after_the_delay(gcs):
     conn.mav.command_long_send(1, 1, m.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
     assert sim.armed
+
+
+NEVER = 1e9  # a position_delay_s the test lowers to 0 when it wants the EKF ready
+
+
+def arm(conn, expect) -> None:
+    conn.mav.command_long_send(1, 1, m.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
+
+
+def set_mode(conn, number: int) -> None:
+    conn.mav.command_long_send(1, 1, m.MAV_CMD_DO_SET_MODE, 0, 1, number, 0, 0, 0, 0, 0)
+
+
+def wait_for(conn, kind: str, predicate, timeout: float = 5.0):
+    """The first ``kind`` message for which ``predicate`` holds (a condition, not a delay)."""
+    while (msg := conn.recv_match(type=kind, blocking=True, timeout=timeout)) is not None:
+        if predicate(msg):
+            return msg
+    raise AssertionError(f"no {kind} matching the condition")
+
+
+def test_armed_before_the_ekf_has_a_position_modes_that_need_one_are_refused(gcs):
+    sim, conn, expect = gcs(prearm_delay_s=0, position_delay_s=NEVER)
+    starting = expect("EKF_STATUS_REPORT")
+    assert starting.flags & m.EKF_CONST_POS_MODE and not starting.flags & m.EKF_POS_HORIZ_ABS
+    assert expect("GPS_RAW_INT").fix_type < 3
+    assert not expect("SYS_STATUS").onboard_control_sensors_health & m.MAV_SYS_STATUS_AHRS
+    arm(conn, expect)
+    set_mode(conn, 15)  # GUIDED
+    assert expect("STATUSTEXT").text == "Flight mode change failed"  # as Rover::set_mode says
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_FAILED and sim.mode_name == "HOLD"
+    set_mode(conn, 0)  # MANUAL needs no position
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
+    sim.position_delay_s = 0  # the EKF converges
+    wait_for(conn, "EKF_STATUS_REPORT", lambda r: r.flags & m.EKF_POS_HORIZ_ABS
+             and not r.flags & m.EKF_CONST_POS_MODE)  # fmt: skip
+    wait_for(conn, "SYS_STATUS", lambda r: r.onboard_control_sensors_health & m.MAV_SYS_STATUS_AHRS)
+    assert wait_for(conn, "GPS_RAW_INT", lambda r: True).fix_type == 3
+    set_mode(conn, 15)
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED and sim.mode_name == "GUIDED"
+
+
+def test_disarmed_any_mode_is_taken_before_the_ekf_has_a_position(gcs):
+    sim, conn, expect = gcs(position_delay_s=NEVER)  # Rover skips the check while disarmed
+    set_mode(conn, 15)
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED and sim.mode_name == "GUIDED"
+
+
+def test_home_and_origin_are_sent_once_the_gps_has_a_fix(gcs):
+    sim, conn, expect = gcs(position_delay_s=NEVER)
+    conn.mav.command_long_send(1, 1, m.MAV_CMD_REQUEST_MESSAGE, 0, 242, 0, 0, 0, 0, 0, 0)
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_FAILED  # no home yet
+    sim.position_delay_s = 0
+    home = expect("HOME_POSITION")
+    origin = expect("GPS_GLOBAL_ORIGIN")
+    assert (home.latitude, origin.latitude) == (int(sim.home[0] * 1e7),) * 2
+
+
+def test_rtl_drives_home_says_so_and_stays_there(gcs):
+    sim, conn, expect = gcs(prearm_delay_s=0)
+    arm(conn, expect)
+    set_mode(conn, 15)
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
+    conn.mav.set_position_target_global_int_send(0, 1, 1, 6, 0b110111111000, -319790000,
+                                                 1158205000, 0, 0, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip
+    wait_for(conn, "GLOBAL_POSITION_INT", lambda p: abs(p.lat - -319790000) <= 1)
+    set_mode(conn, 11)  # RTL
+    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
+    wait_for(conn, "STATUSTEXT", lambda t: t.text == "Reached destination")
+    assert sim.mode_name == "RTL"  # a boat loiters at home, it does not change mode
+    at = wait_for(conn, "GLOBAL_POSITION_INT", lambda p: True)
+    assert (at.lat, at.lon) == (int(sim.home[0] * 1e7), int(sim.home[1] * 1e7))
 
 
 def test_refused_modes_are_denied(gcs):
