@@ -145,6 +145,7 @@ class Outbox:
         self._lock = threading.Lock()
         self._eviction_logged = -EVICTION_LOG_EVERY_S
         self._pending: list[tuple[str, float]] = []  # fixes not committed yet: (body, created_at)
+        self._pending_evicted = 0  # waiting fixes dropped while commits failed (see add_fix)
         # isolation_level=None: we issue BEGIN/COMMIT ourselves so each change is one transaction.
         self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
         self._db.execute("PRAGMA journal_mode=WAL")
@@ -193,6 +194,7 @@ class Outbox:
                     db.execute(verb)
                 if verb == "COMMIT" and self.durable:
                     outbox._pending.clear()  # they are on disk now (_write_pending)
+                    outbox._pending_evicted = 0
             finally:
                 try:
                     if self.durable:
@@ -212,7 +214,9 @@ class Outbox:
         db.executemany(
             "INSERT INTO outbox (kind, body, created_at) VALUES ('fix', ?, ?)", self._pending
         )
-        self._bump(db, "recorded_fixes", len(self._pending))
+        self._bump(db, "recorded_fixes", len(self._pending) + self._pending_evicted)
+        if self._pending_evicted:
+            self._bump(db, "evicted_fixes", self._pending_evicted)
         (count,) = db.execute("SELECT COUNT(*) FROM outbox WHERE kind = 'fix'").fetchone()
         excess = count - self.max_fixes
         if excess > 0:
@@ -234,6 +238,11 @@ class Outbox:
         body = json.dumps(fix, separators=(",", ":"), allow_nan=False)
         with self._lock:
             self._pending.append((body, time.time()))
+            if len(self._pending) > self.max_fixes:
+                # Commits keep failing (a dying SD card): memory holds no more than the disk
+                # would, oldest out first, counted as evictions once a commit works again.
+                del self._pending[0]
+                self._pending_evicted += 1
             full = len(self._pending) >= self.commit_every
         return self.commit() if full else 0
 

@@ -259,3 +259,23 @@ def test_what_carries_a_promise_is_fsynced_and_the_rest_is_not(tmp_path):
     ]
     assert box._db.execute("PRAGMA synchronous").fetchone() == (1,)  # NORMAL between them
     box.close()
+
+
+def test_fixes_waiting_on_a_failing_disk_stay_bounded_and_are_counted(tmp_path, monkeypatch):
+    box = Outbox(tmp_path / "o.sqlite3", max_fixes=5, commit_every=1)
+    real_write = Outbox._write_pending
+
+    def failing_disk(self, db):
+        raise sqlite3.OperationalError("disk I/O error")
+
+    monkeypatch.setattr(Outbox, "_write_pending", failing_disk)
+    for i in range(20):
+        with pytest.raises(sqlite3.OperationalError):
+            box.add_fix({"n": i})
+    assert box.count("fix") == 5  # held in memory, no more than the disk would hold
+
+    monkeypatch.setattr(Outbox, "_write_pending", real_write)
+    box.commit()
+    assert [item.body["n"] for item in box.peek("fix", 10)] == [15, 16, 17, 18, 19]
+    assert box.counter("evicted_fixes") == 15
+    assert box.counter("recorded_fixes") == 20
