@@ -14,7 +14,8 @@ from commands.models import Command
 from telemetry.services import fix_ingest
 from vessels.models import Vessel
 
-pytestmark = [pytest.mark.browser, pytest.mark.django_db(transaction=True)]
+# A real chromium per test: not for the quick loop.
+pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
 SCREENSHOTS = (
     Path(os.environ.get("SHORESIDE_SCREENSHOTS", ""))
     if os.environ.get("SHORESIDE_SCREENSHOTS")

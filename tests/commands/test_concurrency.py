@@ -121,6 +121,7 @@ def test_a_poll_racing_a_cancel_leaves_one_consistent_history(racing_vessel: Ves
         assert command.status == Status.CANCELLED
 
 
+@pytest.mark.slow
 @pytest.mark.django_db(transaction=True)
 def test_racing_navigation_commands_leave_only_the_newest_queued(
     racing_vessel: Vessel, monkeypatch: pytest.MonkeyPatch

@@ -124,6 +124,7 @@ def test_without_an_autopilot_a_command_fails_with_the_reason(outbox, commands_c
     assert 1120 <= clock.now < 1121  # it waited ready_timeout_s for one
 
 
+@pytest.mark.slow
 def test_a_command_polled_before_the_autopilot_is_heard_waits_for_it(
     make_sim, outbox, commands_config
 ):
@@ -146,6 +147,7 @@ def test_a_command_polled_before_the_autopilot_is_heard_waits_for_it(
 # -- against the simulator ------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_move_to_arms_goes_guided_and_is_done_on_arrival(
     make_sim, make_link, outbox, commands_config
 ):
@@ -173,6 +175,7 @@ def test_arm_before_move_can_be_turned_off(make_sim, make_link, outbox):
     assert not sim.sim.armed
 
 
+@pytest.mark.slow
 def test_arming_gives_up_after_the_timeout_with_the_prearm_reason(make_sim, make_link, outbox):
     sim = make_sim(prearm_delay_s=60)
     link = make_link(sim.endpoint)
@@ -202,6 +205,7 @@ def test_hold_resume_return_home_set_mode_arm_disarm(make_sim, make_link, outbox
     assert status == "failed" and "refused mode AUTO" in detail
 
 
+@pytest.mark.slow
 def test_return_home_is_done_on_arrival_not_when_rtl_is_accepted(
     make_sim, make_link, outbox, commands_config
 ):
@@ -223,6 +227,7 @@ def test_return_home_is_done_on_arrival_not_when_rtl_is_accepted(
     wait_until(lambda: link.state.distance_to(*START) < 3, 5, "the position at home")
 
 
+@pytest.mark.slow
 def test_return_home_without_a_known_home_is_done_when_rover_says_it_arrived(
     make_sim, make_link, outbox, commands_config
 ):
@@ -244,6 +249,7 @@ def test_return_home_without_a_known_home_is_done_when_rover_says_it_arrived(
     wait_until(lambda: link.state.distance_to(*START) < 3, 5, "the position at home")
 
 
+@pytest.mark.slow
 def test_return_home_fails_if_the_mode_changes_before_arrival(
     make_sim, make_link, outbox, commands_config
 ):
@@ -272,6 +278,7 @@ def test_a_refused_mode_change_fails_the_command(make_sim, make_link, outbox, co
     ]
 
 
+@pytest.mark.slow
 def test_a_move_to_sent_while_the_autopilot_gets_its_position_waits_for_it(
     make_sim, make_link, outbox, commands_config
 ):
@@ -332,6 +339,7 @@ WAYPOINTS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("request_int", [False, True])
 def test_mission_is_uploaded_with_home_first_and_run_to_the_end(
     make_sim, make_link, outbox, commands_config, request_int
@@ -373,6 +381,7 @@ def test_a_rejected_mission_fails_with_the_error_code(make_sim, make_link, outbo
     assert sim.sim.mission == []
 
 
+@pytest.mark.slow
 def test_mission_upload_survives_a_lossy_link(make_sim, make_link, outbox, commands_config):
     sim = make_sim(drop=0.15, dup=0.2, seed=3)
     link = make_link(sim.endpoint, silent_after_s=10)

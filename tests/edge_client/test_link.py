@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from edge_client.config import MavlinkConfig, ReadingSource
 from edge_client.mavlink_link import MavlinkLink
 
@@ -53,6 +55,7 @@ def test_extra_readings_come_from_the_configured_message(make_sim):
         link.stop()
 
 
+@pytest.mark.slow
 def test_a_silent_autopilot_is_noticed_and_so_is_its_return(make_sim, make_link):
     sim = make_sim()
     link = make_link(sim.endpoint, silent_after_s=1.0)
@@ -66,6 +69,7 @@ def test_a_silent_autopilot_is_noticed_and_so_is_its_return(make_sim, make_link)
     assert link.state.reconnects == 1
 
 
+@pytest.mark.slow
 def test_a_restarted_autopilot_is_picked_up_again(make_sim):
     first = make_sim()
     link = MavlinkLink(MavlinkConfig(connection=first.endpoint, silent_after_s=1.0))

@@ -11,6 +11,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from edge_client import systemd
 from tests.edge_client.conftest import free_port
 
@@ -59,6 +61,7 @@ def test_the_unit_file_is_a_notify_service_with_a_watchdog_and_its_own_user():
     assert "-m edge_client run --config /etc/shoreside/edge.toml" in service["ExecStart"]
 
 
+@pytest.mark.slow
 def test_lifecycle_ready_then_sigterm_is_a_clean_exit(tmp_path):
     notify_path = str(tmp_path / "notify")
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)

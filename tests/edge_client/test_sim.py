@@ -91,6 +91,7 @@ def test_download_starts_with_home(gcs):
     assert (home.seq, home.x, home.y) == (0, -315000000, 1155000000)
 
 
+@pytest.mark.slow
 def test_prearm_checks_pass_only_after_the_delay(gcs):
     sim, conn, expect = gcs(prearm_delay_s=1.5)
     conn.mav.command_long_send(1, 1, m.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
@@ -123,6 +124,7 @@ def wait_for(conn, kind: str, predicate, timeout: float = 5.0):
     raise AssertionError(f"no {kind} matching the condition")
 
 
+@pytest.mark.slow
 def test_armed_before_the_ekf_has_a_position_modes_that_need_one_are_refused(gcs):
     sim, conn, expect = gcs(prearm_delay_s=0, position_delay_s=NEVER)
     starting = expect("EKF_STATUS_REPORT")
@@ -160,6 +162,7 @@ def test_home_and_origin_are_sent_once_the_gps_has_a_fix(gcs):
     assert (home.latitude, origin.latitude) == (int(sim.home[0] * 1e7),) * 2
 
 
+@pytest.mark.slow
 def test_rtl_drives_home_says_so_and_stays_there(gcs):
     sim, conn, expect = gcs(prearm_delay_s=0)
     arm(conn, expect)

@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from sms.level2.cli import main
 
 from .conftest import DATA
@@ -66,6 +68,7 @@ def test_payload_refuses_a_command_the_table_refuses() -> None:
     assert status == 2 and "provisional entry not enabled" in lines[-1]
 
 
+@pytest.mark.slow
 def test_payload_and_cc_talk_over_a_pty() -> None:
     python = [sys.executable, "-m", "sms.level2"]
     payload = subprocess.Popen(

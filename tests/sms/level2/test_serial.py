@@ -79,6 +79,7 @@ def pty_payload() -> Iterator[tuple[PtyPort, Running]]:
     pty.close()
 
 
+@pytest.mark.slow
 def test_an_hour_of_polling_with_faults_through_a_pty(pty_payload) -> None:  # type: ignore[no-untyped-def]
     pty, running = pty_payload
     source = running.source
