@@ -46,3 +46,30 @@ def test_no_app_imports_upward(app: str) -> None:
     seen, bad = scan(app)
     assert seen > 0  # the app was found and read
     assert bad == []
+
+
+# Pure logic (DESIGN §2): importable and testable with no database, no port, no network.
+PURE = [
+    "vessels/kinds.py",
+    "commands/catalog.py",
+    "commands/lifecycle.py",
+    "commands/errors.py",
+    "telemetry/parsing.py",
+    "telemetry/geo.py",
+    "telemetry/errors.py",
+    "sms/level2/codec.py",
+    "sms/level2/framing.py",
+    "sms/level2/bodies.py",
+    "sms/level2/inner.py",
+    "sms/level2/payload.py",
+    "edge_client/catalog.py",
+    "edge_client/geo.py",
+    "edge_client/mission.py",
+]
+IO = {"django", "rest_framework", "serial", "socket", "requests", "pymavlink", "sqlite3"}
+
+
+@pytest.mark.parametrize("module", PURE)
+def test_pure_modules_import_no_io(module: str) -> None:
+    packages = {package for _, package in imported_packages(ROOT / module)}
+    assert packages & IO == set()
