@@ -33,6 +33,7 @@ DESCRIPTIONS = {
     "409": "The command's status does not allow this any more",
     "413": "The body is over DATA_UPLOAD_MAX_MEMORY_SIZE",
     "415": "The body is not application/json",
+    "429": "Over this vessel's or operator's request rate; retry after Retry-After seconds",
     "503": "The database is away for a moment; retry after Retry-After seconds",
 }
 # Operations whose object can be in a state that refuses the request.
@@ -41,7 +42,7 @@ CONFLICTS = ("/ack/", "/cancel/")
 
 def error_codes(path: str, method: str, operation: dict[str, Any]) -> list[str]:
     """The error statuses an operation can answer, from what it takes."""
-    codes = ["401", "403", "503"]
+    codes = ["401", "403", "429", "503"]
     if "requestBody" in operation:
         codes += ["400", "413", "415"]
     if any(p.get("in") == "query" for p in operation.get("parameters", [])):

@@ -243,7 +243,7 @@ def test_every_operation_documents_the_errors_it_can_answer(session_operator: AP
     schema = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
     error = {"$ref": "#/components/schemas/Error"}
     expected = {
-        ("post", "/api/v1/boat/telemetry/"): {"400", "401", "403", "413", "415", "503"},
+        ("post", "/api/v1/boat/telemetry/"): {"400", "401", "403", "413", "415", "429", "503"},
         ("get", "/api/v1/boat/commands/"): {"304", "401", "403", "503"},
         ("post", "/api/v1/boat/commands/{uid}/ack/"): {"400", "404", "409", "415"},
         ("get", "/api/v1/vessels/{slug}/fixes/"): {"400", "401", "403", "404"},
