@@ -120,7 +120,8 @@ def test_the_docs_page_uses_only_local_assets(session_operator: APIClient) -> No
     assets = re.findall(r'(?:src|href)="([^"]+)"', html)
     assert any("swagger-ui" in a for a in assets)
     assert all(a.startswith("/static/") for a in assets), assets
-    assert "cdn" not in html.lower()
+    # A CDN host ("cdn.", "//cdn"), not the letters: the page's random CSRF token may hold them.
+    assert not re.search(r"cdn\.|//cdn", html, re.IGNORECASE)
     assert not re.search(r"https?://(?!localhost|127\.0\.0\.1|testserver)", html)
 
 
