@@ -7,7 +7,6 @@ from typing import Any
 
 from django.core.exceptions import RequestDataTooBig
 from django.core.exceptions import ValidationError as DjangoValidationError
-from django.db import InterfaceError, OperationalError
 from django.http import Http404
 from rest_framework import exceptions, status
 from rest_framework.response import Response
@@ -16,6 +15,7 @@ from rest_framework.views import exception_handler as drf_exception_handler
 from commands.errors import CatalogError, CommandError, CommandNotFound, TransitionError
 from fleet.error_views import too_large_detail
 from telemetry.errors import TelemetryError
+from vessels.database import database_unavailable
 
 logger = logging.getLogger(__name__)
 
@@ -59,8 +59,8 @@ def domain_to_api(exc: Exception) -> Exception:
         return exceptions.ValidationError(exc.as_dict())
     if isinstance(exc, RequestDataTooBig):
         return TooLarge(too_large_detail())
-    if isinstance(exc, OperationalError | InterfaceError):
-        logger.warning("database error answered 503: %s", exc)
+    if database_unavailable(exc):
+        logger.warning("database unavailable, answered 503: %s", exc)
         return DatabaseUnavailable()
     if isinstance(exc, TelemetryError):
         return exceptions.ParseError(exc.message)

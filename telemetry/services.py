@@ -11,12 +11,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from django.conf import settings
-from django.db import InterfaceError, OperationalError, connection, transaction
+from django.db import DatabaseError, connection, transaction
 from django.utils import timezone
 
 from telemetry.errors import BatchTooLarge
 from telemetry.models import Fix, SensorChannel
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
+from vessels.database import database_unavailable
 from vessels.models import Vessel
 from vessels.services import vessel_record_fix, vessel_record_fix_statement
 
@@ -89,8 +90,8 @@ def _store(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) 
     """
     try:
         return _store_once(vessel, fixes, now)
-    except (OperationalError, InterfaceError):
-        if connection.in_atomic_block:
+    except DatabaseError as exc:
+        if connection.in_atomic_block or not database_unavailable(exc):
             raise
         logger.warning("ingest for %s lost its database connection; retrying", vessel.slug)
         connection.close()

@@ -50,8 +50,8 @@ def drop_own_connection() -> None:
     if connection.vendor == "postgresql":
         with connection.cursor() as cursor:
             cursor.execute("SELECT pg_terminate_backend(pg_backend_pid())")
-    # SQLite has no server to lose; its driver reports I/O failures the same way.
-    raise OperationalError("server closed the connection unexpectedly")
+    # SQLite has no server to lose: its transient refusal is a lock held past busy_timeout.
+    raise OperationalError("database is locked")
 
 
 @pytest.mark.django_db(transaction=True)
@@ -94,3 +94,25 @@ def test_a_request_whose_database_goes_away_is_a_503_json_with_retry_after(
     # The server closes the broken connection after the request; the next one reconnects.
     monkeypatch.undo()
     assert http.get(live_server.url + COMMANDS, timeout=10).status_code == 200
+
+
+@pytest.mark.django_db(transaction=True)
+def test_a_database_fault_that_a_retry_cannot_fix_is_a_500_not_a_503(
+    vessel_a: Vessel, key_a: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A missing table (a deploy without `migrate`) must not look like a passing outage."""
+    calls = []
+
+    def store_on_a_missing_table(*args: Any) -> Any:
+        calls.append(args)
+        with connection.cursor() as cursor:
+            cursor.execute("SELECT * FROM no_such_table")
+
+    monkeypatch.setattr(services, "_store_once", store_on_a_missing_table)
+    client = boat_client(key_a)
+    client.raise_request_exception = False
+    fix = {"time": "2026-11-23T10:00:00Z", "lat": -31.95, "lon": 115.86}
+    response = client.post(TELEMETRY, {"fixes": [fix]}, format="json")
+    assert response.status_code == 500
+    assert response.json()["error"] == "server_error"
+    assert len(calls) == 1  # not retried
