@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import time
 from typing import Any
 
 from django.conf import settings
@@ -38,16 +39,21 @@ def _key(username: str, address: str) -> str:
 
 
 def login_blocked(*, username: str, address: str) -> bool:
-    return cache.get(_key(username, address), 0) >= settings.LOGIN_FAILURE_LIMIT
+    count, until = cache.get(_key(username, address), (0, 0.0))
+    return count >= settings.LOGIN_FAILURE_LIMIT and until > time.time()
 
 
 def login_failed(*, username: str, address: str) -> None:
-    key = _key(username, address)
-    if not cache.add(key, 1, settings.LOGIN_LOCKOUT_S):
-        try:
-            cache.incr(key)
-        except ValueError:  # expired between add() and incr()
-            cache.set(key, 1, settings.LOGIN_LOCKOUT_S)
+    """Count a failure; the count lasts LOGIN_LOCKOUT_S from the first one.
+
+    The deadline is stored with the count and every write sets the remaining time: the file
+    and database caches' incr() re-sets a key with the cache's default 300 s timeout.
+    """
+    key, now = _key(username, address), time.time()
+    count, until = cache.get(key, (0, now + settings.LOGIN_LOCKOUT_S))
+    if until <= now:
+        count, until = 0, now + settings.LOGIN_LOCKOUT_S
+    cache.set(key, (count + 1, until), timeout=max(1, until - now))
 
 
 def login_succeeded(*, username: str, address: str) -> None:

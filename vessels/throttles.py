@@ -48,8 +48,10 @@ class WindowRateThrottle(SimpleRateThrottle):
         else:
             try:
                 # Atomic in locmem; get-then-set in the file and database caches, where a
-                # race may lose a count (and the key's timeout becomes the cache's 300 s).
+                # race may lose a count, and which re-set the key with the cache's default
+                # 300 s timeout: give it back the rest of its window (an /hour or /day rate).
                 count = self.cache.incr(key)
+                self.cache.touch(key, max(1, (window + 1) * self.duration - now))
             except ValueError:  # expired between add() and incr()
                 self.cache.set(key, 1, self.duration)
                 count = 1

@@ -83,3 +83,29 @@ def test_behind_the_proxy_the_address_it_appended_counts(alice: User, settings: 
         login("alice", "pw-alice", "127.0.0.1", HTTP_X_FORWARDED_FOR=f"9.9.9.9, {ATTACKER}")
     )
     assert logged_in(login("alice", "pw-alice", "127.0.0.1", HTTP_X_FORWARDED_FOR=OFFICE))
+
+
+@pytest.fixture
+def file_cache(settings: Any, tmp_path: Any) -> None:
+    """The cache the README recommends under several gunicorn workers."""
+    settings.CACHES = {
+        "default": {
+            "BACKEND": "django.core.cache.backends.filebased.FileBasedCache",
+            "LOCATION": str(tmp_path / "cache"),
+        }
+    }
+
+
+def test_with_the_file_cache_the_lockout_lasts_its_full_time(
+    file_cache: None, alice: User, settings: Any
+) -> None:
+    start = dt.datetime.now(dt.UTC)
+    with time_machine.travel(start, tick=False) as clock:
+        for _ in range(5):
+            login("alice", "guess")
+        # Past the cache's default 300 s timeout (which its incr() would have re-set) ...
+        clock.move_to(start + dt.timedelta(seconds=301))
+        assert refused_for_failures(login("alice", "pw-alice"))
+        # ... and free once LOGIN_LOCKOUT_S after the first failure has passed.
+        clock.move_to(start + dt.timedelta(seconds=settings.LOGIN_LOCKOUT_S + 1))
+        assert logged_in(login("alice", "pw-alice"))

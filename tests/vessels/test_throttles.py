@@ -145,3 +145,23 @@ def test_the_file_cache_shared_by_workers_counts_too(
         assert boat_a.get("/api/v1/boat/commands/").status_code == 200
     assert_throttled(boat_a.get("/api/v1/boat/commands/"))
     assert any((tmp_path / "cache").iterdir())
+
+
+def test_an_hourly_rate_holds_for_the_hour_in_the_file_cache(
+    settings: Any, tmp_path: Any, boat_a: APIClient, frozen: time_machine.Coordinates
+) -> None:
+    settings.CACHES = {
+        "default": {
+            "BACKEND": "django.core.cache.backends.filebased.FileBasedCache",
+            "LOCATION": str(tmp_path / "cache"),
+        }
+    }
+    settings.REST_FRAMEWORK = {
+        **settings.REST_FRAMEWORK,
+        "DEFAULT_THROTTLE_RATES": {"boat": "3/hour", "operator": "3/hour"},
+    }
+    for _ in range(3):
+        assert boat_a.get("/api/v1/boat/commands/").status_code == 200
+    # Past the file cache's default 300 s timeout, which its incr() re-sets the key to.
+    frozen.shift(dt.timedelta(seconds=400))
+    assert boat_a.get("/api/v1/boat/commands/").status_code == 429
