@@ -186,3 +186,13 @@ def test_knox_leaves_no_table_of_its_own() -> None:
     tables = connection.introspection.table_names()
     assert "operators_operatortoken" in tables
     assert not [t for t in tables if t.startswith("knox_")]
+
+
+@pytest.mark.django_db(transaction=True)
+def test_the_old_plaintext_token_table_is_dropped_on_upgrade() -> None:
+    call_command("migrate", "operators", "0001", verbosity=0)
+    with connection.cursor() as cursor:  # what an install from before knox still holds
+        cursor.execute("CREATE TABLE authtoken_token (key varchar(40) PRIMARY KEY)")
+        cursor.execute("INSERT INTO authtoken_token VALUES ('0123456789abcdef')")
+    call_command("migrate", "operators", verbosity=0)
+    assert "authtoken_token" not in connection.introspection.table_names()
