@@ -13,17 +13,22 @@ $py manage.py migrate --noinput -v0
 $py manage.py collectstatic --noinput -v0
 $py manage.py seed_demo
 keys="$SHORESIDE_DATA_DIR/demo-keys.json"
-key_of() { $py -c "import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])" "$keys" "$1"; }
+# Each boat's key in a private file of its own: on the command line it would show in `ps`.
+key_file() {
+  (umask 077; $py -c "import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])" \
+    "$keys" "$1" >"$SHORESIDE_DATA_DIR/key-$1")
+  echo "$SHORESIDE_DATA_DIR/key-$1"
+}
 pids=()
 cleanup() { kill "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
 trap cleanup EXIT INT TERM
 $py -m gunicorn fleet.wsgi -b "127.0.0.1:$PORT" -w 2 --threads 4 &
 pids+=($!)
 sleep 2
-$py manage.py simulate_boat --server "http://127.0.0.1:$PORT" --key "$(key_of spab)" \
+$py manage.py simulate_boat --server "http://127.0.0.1:$PORT" --key-file "$(key_file spab)" \
   --start=-31.9790,115.8170 --port "$BOAT_PORT" >"$SHORESIDE_DATA_DIR/sim-spab.log" 2>&1 &
 pids+=($!)
-$py manage.py simulate_boat --server "http://127.0.0.1:$PORT" --key "$(key_of spab-2)" \
+$py manage.py simulate_boat --server "http://127.0.0.1:$PORT" --key-file "$(key_file spab-2)" \
   --start=-32.0560,115.7400 --port "$((BOAT_PORT + 10))" >"$SHORESIDE_DATA_DIR/sim-spab-2.log" 2>&1 &
 pids+=($!)
 echo "Shoreside demo on http://127.0.0.1:$PORT/admin/ (Ctrl-C stops it; boat logs in $SHORESIDE_DATA_DIR)"

@@ -14,7 +14,7 @@ from typing import Any
 from django.conf import settings
 from rest_framework.exceptions import ParseError
 
-from vessels.api.parsers import JSONParser
+from vessels.api.parsers import JSONParser, refuse_oversized
 
 # Past ~309 digits an integer is beyond a float's range anyway: no coordinate, no reading.
 MAX_INT_DIGITS = 400
@@ -26,6 +26,7 @@ def _integer(text: str) -> int | float:
 
 class TelemetryJSONParser(JSONParser):
     def parse(self, stream: Any, media_type: str | None = None, parser_context: Any = None) -> Any:
+        refuse_oversized(parser_context)
         encoding = (parser_context or {}).get("encoding", settings.DEFAULT_CHARSET)
         try:
             text = codecs.getreader(encoding)(stream).read()

@@ -38,9 +38,10 @@ def test_navigation_kinds_are_the_catalogs() -> None:
 
 def test_every_range_is_the_catalogs() -> None:
     server: dict[str, tuple[float | None, float | None]] = {}
-    for kind in MAVLINK_KINDS:
-        server |= ranged(kind.params)
-    server |= ranged(MISSION_ITEM_PARAMS)
+    for params in [*(kind.params for kind in MAVLINK_KINDS), MISSION_ITEM_PARAMS]:
+        for name, bounds in ranged(params).items():
+            # The edge copy keys ranges by parameter name: one name, one range everywhere.
+            assert server.setdefault(name, bounds) == bounds, name
     assert edge.RANGES == server
 
 
