@@ -660,39 +660,12 @@ class RoverSim:
             return
         it = items[seq]
         current = 1 if seq == self.current else 0
-        if as_int:
-            self._emit(
-                conn,
-                "mission_item_int",
-                *self._peer(conn),
-                it.seq,
-                it.frame,
-                it.command,
-                current,
-                it.autocontinue,
-                it.param1,
-                it.param2,
-                it.param3,
-                it.param4,
-                it.x,
-                it.y,
-                it.z,
-            )
-        else:
-            self._emit(
-                conn,
-                "mission_item",
-                *self._peer(conn),
-                it.seq,
-                it.frame,
-                it.command,
-                current,
-                it.autocontinue,
-                it.param1,
-                it.param2,
-                it.param3,
-                it.param4,
-                it.x / 1e7,
-                it.y / 1e7,
-                it.z,
-            )
+        # MISSION_ITEM_INT carries degrees * 1e7 as integers; the old MISSION_ITEM, float degrees.
+        name, x, y = (
+            ("mission_item_int", it.x, it.y) if as_int else ("mission_item", it.x / 1e7, it.y / 1e7)
+        )
+        params = (it.param1, it.param2, it.param3, it.param4)
+        self._emit(
+            conn, name, *self._peer(conn), it.seq, it.frame, it.command, current, it.autocontinue,
+            *params, x, y, it.z,
+        )  # fmt: skip
