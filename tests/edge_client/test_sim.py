@@ -89,6 +89,10 @@ def test_download_starts_with_home(gcs):
     conn.mav.mission_request_int_send(1, 1, 0)
     home = expect("MISSION_ITEM_INT")
     assert (home.seq, home.x, home.y) == (0, -315000000, 1155000000)
+    # The old MISSION_REQUEST gets the old MISSION_ITEM: the same point, in float degrees.
+    conn.mav.mission_request_send(1, 1, 0)
+    old = expect("MISSION_ITEM")
+    assert (old.seq, old.x, old.y) == (0, pytest.approx(-31.5), pytest.approx(115.5))
 
 
 @pytest.mark.slow
