@@ -3,7 +3,7 @@
 Pure and stdlib-only (the Rover simulator in ``edge_client.sim`` uses it too). A sphere of the
 mean Earth radius (IUGG, 6,371 km) is good to well under a metre at the few kilometres a boat
 covers between two fixes; nothing here needs an ellipsoid. The server has its own copy in
-``telemetry/geo.py``: the boat never imports the server's code.
+``vessels/geo.py``: the boat never imports the server's code.
 """
 
 from __future__ import annotations

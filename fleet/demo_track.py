@@ -12,7 +12,7 @@ import random
 from dataclasses import dataclass, field
 from typing import Any
 
-from telemetry.geo import bearing_deg, distance_m, offset
+from vessels.geo import bearing_deg, distance_m, offset
 
 
 def patrol_route(

@@ -55,7 +55,7 @@ PURE = [
     "commands/lifecycle.py",
     "commands/errors.py",
     "telemetry/parsing.py",
-    "telemetry/geo.py",
+    "vessels/geo.py",
     "telemetry/errors.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",

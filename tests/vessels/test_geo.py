@@ -1,11 +1,11 @@
-"""Geo helpers, server side (telemetry/geo.py), and their agreement with the boat's copy."""
+"""Geo helpers, server side (vessels/geo.py), and their agreement with the boat's copy."""
 
 from __future__ import annotations
 
 import pytest
 
 from edge_client import geo as edge_geo
-from telemetry import geo
+from vessels import geo
 
 FREMANTLE = (-32.0560, 115.7400)
 
