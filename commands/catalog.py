@@ -151,7 +151,19 @@ RADIUS_M = Param(
     required=False,
     default=None,
 )
-MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M)
+SPEED_MPS = Param(
+    "speed_mps",
+    "float",
+    "speed from this item on, m/s (ArduPilot DO_CHANGE_SPEED)",
+    minimum=0.1,
+    maximum=20,
+    required=False,
+    default=None,
+)
+MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M, SPEED_MPS)
+# How a mission ends: the boat stops at the last item, starts again from the first, or returns
+# home (ArduPilot: nothing, a DO_JUMP to item 1, a final NAV_RETURN_TO_LAUNCH).
+MISSION_ENDS = ("stop", "loop", "return_home")
 
 
 def _clean_mission_item(index: int, item: Any) -> dict[str, Any]:
@@ -229,6 +241,14 @@ KINDS: dict[str, CommandKind] = {
                 Param("mission_id", "int", "mission id on the server", minimum=1, required=False),
                 Param("items", "items", "waypoints [{lat, lon, hold_s, radius_m}]"),
                 Param("loop", "bool", "repeat the mission", required=False, default=False),
+                Param(
+                    "end",
+                    "choice",
+                    "stop, loop or return_home after the last item",
+                    choices=MISSION_ENDS,
+                    required=False,
+                    default=None,
+                ),
             ),
             navigation=True,
         ),
@@ -351,7 +371,23 @@ def validate(kind: str, params: Any, *, vessel_kind: str | None = None) -> Valid
     if not isinstance(params, Mapping):
         raise CatalogError("params must be an object", field="params")
     clean = _clean_params(spec.params, params)
+    if spec.name == "mission":
+        clean = _mission_end(clean)
     return ValidCommand(kind=spec.name, params=clean, navigation=spec.navigation)
+
+
+def _mission_end(params: dict[str, Any]) -> dict[str, Any]:
+    """Fill in ``end`` from the older ``loop`` flag and keep the two in step.
+
+    Clients written before ``end`` send only ``loop``; boats read ``end``. Either may be given;
+    both must agree.
+    """
+    end = params["end"]
+    if end is None:
+        end = "loop" if params["loop"] else "stop"
+    elif params["loop"] and end != "loop":
+        raise CatalogError(f"loop is true but end is {end!r}", field="end")
+    return {**params, "end": end, "loop": end == "loop"}
 
 
 def parse_text(text: str, *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:

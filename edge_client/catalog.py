@@ -18,11 +18,13 @@ KIND_PARAMS: dict[str, tuple[str, ...]] = {
     "set_mode": ("mode",),
     "arm": (),
     "disarm": (),
-    "mission": ("mission_id", "items", "loop"),
+    "mission": ("mission_id", "items", "loop", "end"),
 }
 # Kinds that give the boat a new navigation goal, replacing whatever it was doing.
 NAVIGATION_KINDS = frozenset({"move_to", "hold", "resume", "return_home", "set_mode", "mission"})
-MISSION_ITEM_PARAMS: tuple[str, ...] = ("lat", "lon", "hold_s", "radius_m")
+MISSION_ITEM_PARAMS: tuple[str, ...] = ("lat", "lon", "hold_s", "radius_m", "speed_mps")
+# How a mission may end (catalog MISSION_ENDS).
+MISSION_ENDS: tuple[str, ...] = ("stop", "loop", "return_home")
 
 # (minimum, maximum) of every ranged parameter, of a command or of a mission item; None = open.
 RANGES: dict[str, tuple[float | None, float | None]] = {
@@ -30,6 +32,7 @@ RANGES: dict[str, tuple[float | None, float | None]] = {
     "lon": (-180, 180),
     "hold_s": (0, 86400),
     "radius_m": (0.5, 1000),
+    "speed_mps": (0.1, 20),
     "mission_id": (1, None),
 }
 MISSION_MAX_ITEMS = 500

@@ -38,6 +38,7 @@ from typing import Any
 
 from edge_client.catalog import (
     KIND_PARAMS,
+    MISSION_ENDS,
     MISSION_MAX_ITEMS,
     NAVIGATION_KINDS,
     RANGES,
@@ -109,7 +110,7 @@ def _bound(limit: float | None) -> str:
 def _mission_item(item: Any) -> dict[str, Any]:
     if not isinstance(item, dict):
         raise CommandError("is not an object")
-    hold, radius = item.get("hold_s"), item.get("radius_m")
+    hold, radius, speed = item.get("hold_s"), item.get("radius_m"), item.get("speed_mps")
     return {
         "lat": _number(item.get("lat"), "lat"),
         "lon": _number(item.get("lon"), "lon"),
@@ -117,6 +118,8 @@ def _mission_item(item: Any) -> dict[str, Any]:
         # No radius: 0 on the wire, which makes the autopilot use its own WP_RADIUS (common.xml
         # MAV_CMD_NAV_WAYPOINT param2).
         "radius_m": 0.0 if radius is None else _number(radius, "radius_m"),
+        # No speed: the autopilot keeps the speed it has (no DO_CHANGE_SPEED is sent).
+        "speed_mps": None if speed is None else _number(speed, "speed_mps"),
     }
 
 
@@ -137,7 +140,11 @@ def _mission(params: dict[str, Any]) -> dict[str, Any]:
         if not float(_number(mission_id, "mission_id")).is_integer():
             raise CommandError(f"mission_id must be a whole number, got {mission_id!r}")
         mission_id = int(mission_id)
-    return {"items": clean, "loop": bool(params.get("loop", False)), "mission_id": mission_id}
+    loop = bool(params.get("loop", False))
+    end = params.get("end") or ("loop" if loop else "stop")
+    if end not in MISSION_ENDS or (loop and end != "loop"):
+        raise CommandError(f"mission end {end!r} is not one of {', '.join(MISSION_ENDS)}")
+    return {"items": clean, "loop": end == "loop", "end": end, "mission_id": mission_id}
 
 
 def validate(kind: str, params: dict[str, Any]) -> dict[str, Any]:

@@ -213,7 +213,10 @@ def test_it_fills_mission_defaults_and_checks_each_waypoint() -> None:
     assert valid.params == {
         "mission_id": None,
         "loop": False,
-        "items": [{"lat": -32.0, "lon": 115.7, "hold_s": 10.0, "radius_m": None}],
+        "end": "stop",
+        "items": [
+            {"lat": -32.0, "lon": 115.7, "hold_s": 10.0, "radius_m": None, "speed_mps": None}
+        ],
     }
     with pytest.raises(CatalogError) as err:
         validate("mission", {"items": [{"lat": 0, "lon": 0}, {"lat": 91, "lon": 0}]})
@@ -389,3 +392,25 @@ def test_parse_text_raises_only_catalog_errors(text: str) -> None:
     except CatalogError:
         return
     assert parse_text(to_text(valid.kind, valid.params)).kind == valid.kind
+
+
+def test_a_mission_end_defaults_from_loop_and_the_two_must_agree() -> None:
+    item = [{"lat": 0, "lon": 0}]
+    assert validate("mission", {"items": item}).params["end"] == "stop"
+    looping = validate("mission", {"items": item, "loop": True}).params
+    assert (looping["end"], looping["loop"]) == ("loop", True)
+    home = validate("mission", {"items": item, "end": "return_home"}).params
+    assert (home["end"], home["loop"]) == ("return_home", False)
+    with pytest.raises(CatalogError, match="loop is true but end"):
+        validate("mission", {"items": item, "loop": True, "end": "stop"})
+
+
+def test_a_mission_item_speed_is_optional_and_ranged() -> None:
+    item = {"lat": 0, "lon": 0, "speed_mps": 1.5}
+    assert validate("mission", {"items": [item]}).params["items"][0]["speed_mps"] == 1.5
+    assert (
+        validate("mission", {"items": [{"lat": 0, "lon": 0}]}).params["items"][0]["speed_mps"]
+        is None
+    )
+    with pytest.raises(CatalogError, match="speed_mps must be between 0.1 and 20"):
+        validate("mission", {"items": [{**item, "speed_mps": 0}]})

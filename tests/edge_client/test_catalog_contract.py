@@ -98,3 +98,8 @@ def test_every_catalog_mode_is_accepted_by_the_boat(mode: str) -> None:
 def test_the_boot_time_mode_cannot_be_asked_for() -> None:
     with pytest.raises(CommandError, match="unknown Rover mode"):
         validate("set_mode", {"mode": "INITIALISING"})
+
+
+def test_the_ways_a_mission_may_end_are_the_catalogs() -> None:
+    assert edge.MISSION_ENDS == catalog.MISSION_ENDS
+    assert catalog.KINDS["mission"].param("end").choices == edge.MISSION_ENDS

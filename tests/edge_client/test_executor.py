@@ -61,7 +61,10 @@ def test_validate_normalises_good_params():
     assert validate("move_to", {"lat": -31.9, "lon": 115}) == {"lat": -31.9, "lon": 115.0}
     assert validate("set_mode", {"mode": "guided"}) == {"mode": "GUIDED"}
     mission = validate("mission", {"items": [{"lat": 1, "lon": 2}], "loop": True})
-    assert mission["items"] == [{"lat": 1.0, "lon": 2.0, "hold_s": 0.0, "radius_m": 0.0}]
+    assert mission["items"] == [
+        {"lat": 1.0, "lon": 2.0, "hold_s": 0.0, "radius_m": 0.0, "speed_mps": None}
+    ]
+    assert (mission["end"], mission["loop"]) == ("loop", True)
 
 
 @pytest.mark.parametrize(
@@ -72,6 +75,7 @@ def test_validate_normalises_good_params():
         ("move_to", {"lat": True, "lon": 0}, "must be a number"),
         ("set_mode", {"mode": "WARP"}, "unknown Rover mode"),
         ("mission", {"items": []}, "no items"),
+        ("mission", {"items": [{"lat": 0, "lon": 0}], "end": "sink"}, "mission end 'sink'"),
         ("mission", {"items": [{"lat": 0, "lon": 200}]}, "item 0: lon"),
         ("launch_torpedo", {}, "unknown command kind"),
     ],

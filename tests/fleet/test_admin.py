@@ -46,7 +46,8 @@ def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(
     assert command.params == {
         "mission_id": ready.pk,
         "loop": True,
-        "items": [{"lat": -31.9, "lon": 115.8, "hold_s": 0.0, "radius_m": 5.0}],
+        "end": "loop",
+        "items": [{"lat": -31.9, "lon": 115.8, "hold_s": 0.0, "radius_m": 5.0, "speed_mps": None}],
     }
 
 

@@ -57,6 +57,7 @@ PURE = [
     "telemetry/parsing.py",
     "vessels/geo.py",
     "telemetry/errors.py",
+    "sms/gsm7.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",
     "sms/level2/bodies.py",
