@@ -164,6 +164,21 @@ MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M, SPEED_MPS)
 # How a mission ends: the boat stops at the last item, starts again from the first, or returns
 # home (ArduPilot: nothing, a DO_JUMP to item 1, a final NAV_RETURN_TO_LAUNCH).
 MISSION_ENDS = ("stop", "loop", "return_home")
+# ArduPilot keeps a mission in its storage area; on common boards (16 KiB) that holds 724 items
+# (AP_Mission: storage size / 15-byte packed items, less the header). Item 0 is home.
+MISSION_MAX_MAVLINK_ITEMS = 724
+
+
+def mission_mavlink_item_count(items: Sequence[Mapping[str, Any]], end: str) -> int:
+    """How many MAVLink mission items the boat uploads for these items, home included.
+
+    Home (item 0), then per item an optional DO_CHANGE_SPEED before its NAV_WAYPOINT (which
+    carries the hold time), then a DO_JUMP to item 1 (``loop``) or a NAV_RETURN_TO_LAUNCH
+    (``return_home``). ``edge_client/mission.build_mission`` builds exactly this; the contract
+    test pins the two together.
+    """
+    speeds = sum(1 for item in items if item.get("speed_mps") is not None)
+    return 1 + len(items) + speeds + (0 if end == "stop" else 1)
 
 
 def _clean_mission_item(index: int, item: Any) -> dict[str, Any]:
