@@ -135,6 +135,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from django.db import connection
 
     call_command("migrate", verbosity=0)
+    # The machine may be shared: the load says how far apart runs can be compared.
+    print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
     ours, base = bench_parse(max(args.count, 50_000))
     print(f"SMS language, parse + reply, {max(args.count, 50_000):,} texts of the field-trial mix")
     print(

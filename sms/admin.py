@@ -13,13 +13,15 @@ from django.urls import reverse
 from django.utils.html import format_html, format_html_join
 
 from sms.errors import InvalidNumber
-from sms.models import AuthorisedNumber, SmsMessage
+from sms.models import AuthorisedNumber, Direction, SmsMessage
 from sms.services import (
     authorised_number_deauthorise,
     authorised_number_save,
     number_normalise,
 )
 from telemetry.admin import CappedCountPaginator, VesselFilter
+
+TEXT_SHOWN = 160  # one SMS
 
 
 class AuthorisedNumberForm(forms.ModelForm):
@@ -91,13 +93,12 @@ class SmsMessageAdmin(admin.ModelAdmin):
     """The SMS log: every message in and out, read-only, fast on a long history."""
 
     list_display = [
-        "created_at",
-        "direction",
+        "when",
+        "way",
         "vessel",
         "shown_number",
         "text_summary",
-        "outcome",
-        "status",
+        "result",
     ]
     list_filter = ["direction", "outcome", "status", VesselFilter]
     list_select_related = ["vessel"]
@@ -139,13 +140,30 @@ class SmsMessageAdmin(admin.ModelAdmin):
     def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
         return False  # the log stays (DESIGN §3)
 
+    @admin.display(description="time (UTC)", ordering="-created_at")
+    def when(self, message: SmsMessage) -> str:
+        return message.created_at.strftime("%Y-%m-%d %H:%M:%S")
+
+    @admin.display(description="dir", ordering="direction")
+    def way(self, message: SmsMessage) -> str:
+        return message.direction
+
+    @admin.display(description="result")
+    def result(self, message: SmsMessage) -> str:
+        """An incoming SMS's outcome, an outgoing one's send status."""
+        if message.direction == Direction.IN:
+            return message.get_outcome_display()
+        return message.get_status_display()
+
     @admin.display(description="number", ordering="number")
     def shown_number(self, message: SmsMessage) -> str:
         return message.number_e164 or message.number
 
     @admin.display(description="text")
     def text_summary(self, message: SmsMessage) -> str:
-        return message.text if len(message.text) <= 80 else message.text[:79] + "…"
+        text = message.text if len(message.text) <= TEXT_SHOWN else message.text[:TEXT_SHOWN] + "…"
+        # Wide enough to read a reply in a few lines rather than a word per line.
+        return format_html('<span style="display:inline-block;min-width:14em">{}</span>', text)
 
     @admin.display(description="parsed")
     def parsed_pretty(self, message: SmsMessage) -> str:

@@ -240,9 +240,10 @@ def _coordinates(spec: catalog.CommandKind, args: Sequence[str]) -> list[str]:
     and ``'`` marks may separate them (``32°02.28'S``). A hemisphere letter follows the value
     (joined or spaced) and replaces its sign. The catalog then checks the ranges as for any number.
     """
-    if spec.params[-2:] != (catalog.LAT, catalog.LON):
+    params = spec.params
+    if len(params) < 2 or params[-2] is not catalog.LAT or params[-1] is not catalog.LON:
         return list(args)
-    lead = len(spec.params) - 2
+    lead = len(params) - 2
     tail = _MINUTE_MARKS.sub("", _COORDINATE_MARKS.sub(" ", " ".join(args[lead:])))
     values: list[str] = []
     for token in tail.split():
@@ -319,7 +320,7 @@ def compose_reply(answers: Sequence[Answer]) -> str:
     room = SMS_SEPTETS if len(answers) == 1 else SMS_SEPTETS - NOTE_ROOM
     parts = [_render(a, room) for a in answers]
     whole = SEPARATOR.join(parts)
-    if septets(whole) <= SMS_SEPTETS:
+    if _septets(whole) <= SMS_SEPTETS:
         return whole
     for keep in range(len(parts) - 1, 0, -1):
         rest = answers[keep:]
@@ -331,15 +332,28 @@ def compose_reply(answers: Sequence[Answer]) -> str:
     return parts[0]  # pragma: no cover - the first part leaves NOTE_ROOM free
 
 
+# Printable ASCII that is in the GSM-7 basic table, one septet each: most replies are only
+# this, and skip the per-character spelling (TS 23.038 §6.2.1; ` [ \\ ] ^ { | } ~ are not).
+_PLAIN = re.compile(r"[A-Za-z0-9 !\"#$%&'()*+,\-./:;<=>?@_]*")
+
+
 def _fields(text: str) -> list[str]:
-    return to_gsm7(text).split()
+    return (text if _PLAIN.fullmatch(text) else to_gsm7(text)).split()
 
 
 def _length(fields: Sequence[str]) -> int:
     return sum(septets(f) for f in fields) + max(len(fields) - 1, 0)
 
 
+def _septets(text: str) -> int:
+    return len(text) if _PLAIN.fullmatch(text) else septets(text)
+
+
 def _render(answer: Answer, room: int) -> str:
+    if _PLAIN.fullmatch(answer.echo) and _PLAIN.fullmatch(answer.outcome):
+        text = " ".join([*answer.echo.split(), *answer.outcome.split()])
+        if len(text) <= room:
+            return text  # the usual reply: plain and short
     echo, outcome = _fields(answer.echo), _fields(answer.outcome)
     if _length(echo) + 1 + _length(outcome) <= room:
         return " ".join([*echo, *outcome])

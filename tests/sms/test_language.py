@@ -436,3 +436,15 @@ def test_any_text_gives_items_and_a_one_sms_gsm_reply_never_an_exception(text: s
         reply = reply_to(items)
         assert is_gsm7(reply)
         assert 0 < septets(reply) <= SMS_SEPTETS
+
+
+def test_the_plain_text_fast_path_passes_only_one_septet_gsm_characters() -> None:
+    import string
+
+    from sms.gsm7 import BASIC
+    from sms.language import _PLAIN
+
+    for ch in string.printable:
+        if _PLAIN.fullmatch(ch):
+            assert ch in BASIC and septets(ch) == 1, ch
+    assert not _PLAIN.fullmatch("`") and not _PLAIN.fullmatch("[")
