@@ -25,8 +25,14 @@ class CommandState:
     queued: Command | None
 
 
+# Newest first by primary key (ids grow with created_at): SQLite walks the vessel index, whose
+# equal keys are in rowid order, backwards and stops at the first match; ordering by created_at
+# sorted every command the vessel ever had, on each SMS query.
+NEWEST = "-pk"
+
+
 def command_state(*, vessel: Vessel, kind: str) -> CommandState:
-    newest = Command.objects.filter(vessel=vessel, kind=kind).order_by("-created_at", "-pk")
+    newest = Command.objects.filter(vessel=vessel, kind=kind).order_by(NEWEST)
     return CommandState(
         known=newest.filter(status__in=KNOWN).first(),
         queued=newest.filter(status=Status.QUEUED).first(),
@@ -39,7 +45,7 @@ def navigation_current(*, vessel: Vessel) -> Command | None:
         Command.objects.filter(
             vessel=vessel, kind__in=NAVIGATION_KINDS, status__in=CURRENT_NAVIGATION
         )
-        .order_by("-created_at", "-pk")
+        .order_by(NEWEST)
         .first()
     )
 

@@ -7,10 +7,14 @@ import datetime as dt
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, example, given
+from hypothesis import settings as hypothesis_settings
+from hypothesis import strategies as st
 
 from commands.models import Command, CommandEvent
 from commands.services import command_ack, command_claim_open, command_enqueue
 from sms.errors import InvalidNumber, NumberNotFound
+from sms.gsm7 import SMS_SEPTETS, is_gsm7, septets
 from sms.language import NOT_ENABLED
 from sms.models import AuthorisedNumber, Outcome, SendStatus, SmsMessage
 from sms.services import (
@@ -387,3 +391,39 @@ def test_text_the_database_cannot_hold_is_stored_with_replacement_characters(
     result = send(glider, "#FHEAD 230\x00\ud800")
     result.message.refresh_from_db()
     assert result.message.text == "#FHEAD 230\ufffd\ufffd"
+
+
+@hypothesis_settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    text=st.text(max_size=200)
+    | st.text(alphabet=st.characters(min_codepoint=0, max_codepoint=0xFFFF), max_size=40)
+    | st.lists(
+        st.sampled_from(
+            [
+                "#FHEAD 230",
+                "#LIGHT",
+                "#STATUS",
+                "#FSEQ 1 1 4",
+                "#HOLD 1",
+                "#WAYPOINT 1 32 02.28S 115 19.95E",
+                "#HELP",
+                "x",
+            ]
+        ),
+        max_size=12,
+    ).map("\n".join)  # fmt: skip
+)
+@example(text="#FHEAD 230\x00\ud800")
+def test_any_text_from_an_authorised_number_is_answered_in_one_sms_or_logged(
+    glider: Vessel, skipper: AuthorisedNumber, settings: Any, text: str
+) -> None:
+    settings.SMS_RATE_LIMIT = 0
+    result = send(glider, text)
+    assert result.outcome in (Outcome.ACCEPTED, Outcome.ERROR)
+    (reply,) = result.replies
+    assert is_gsm7(reply.text) and 0 < septets(reply.text) <= SMS_SEPTETS
+    reply.refresh_from_db()
+    result.message.refresh_from_db()
+    assert result.message.parsed
