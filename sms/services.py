@@ -8,6 +8,7 @@ from __future__ import annotations
 import datetime as dt
 import functools
 import hashlib
+import logging
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -38,6 +39,8 @@ from sms.models import (
 )
 from vessels.kinds import WAVE_GLIDER
 from vessels.models import Vessel
+
+logger = logging.getLogger(__name__)
 
 # Longer texts are stored cut (and refused whole by the language, which reads MAX_TEXT).
 TEXT_STORE_MAX = 4000
@@ -153,6 +156,7 @@ def sms_handle_incoming(
         seen = _delivered(key) if key else None
         if seen is None:
             raise
+        logger.info("SMS from %s delivered twice at once; handled once", number)
         return seen
 
 
