@@ -17,6 +17,7 @@ from .driver import Modem, ModemConfig, ModemEvents, receive_all
 from .errors import (
     CommandError,
     ModemError,
+    ModemRestarted,
     ModemTimeout,
     PinRequired,
     PortError,
@@ -30,6 +31,7 @@ __all__ = [
     "ModemConfig",
     "ModemError",
     "ModemEvents",
+    "ModemRestarted",
     "ModemTimeout",
     "PinRequired",
     "PortError",

@@ -54,6 +54,7 @@ from .errors import (
     AtParseError,
     CommandError,
     ModemError,
+    ModemRestarted,
     ModemTimeout,
     ModemUsageError,
     PinRequired,
@@ -67,6 +68,7 @@ log = logging.getLogger(__name__)
 BAUDRATE = 115_200  # the usual default of Quectel/SIMCom USB and UART ports
 READ_TIMEOUT_S = 0.05  # one blocking read; bounds how late a deadline is noticed
 COMMAND_TIMEOUT_S = 5.0  # most commands answer in well under a second
+LIST_TIMEOUT_S = 20.0  # AT+CMGL of a full SIM (50 messages) on a slow module
 SEND_TIMEOUT_S = 60.0  # gsm-sms-at.md: +CMGS may take several seconds (network round trip)
 WAKE_TIMEOUT_S = 1.0  # per "AT" while waking a modem; it may ignore commands after power-up
 WAKE_ATTEMPTS = 5
@@ -90,6 +92,7 @@ class ModemConfig:
     baudrate: int = BAUDRATE
     storage: str = "SM"  # AT+CPMS: "SM" the SIM, "ME" the modem's own memory
     command_timeout_s: float = COMMAND_TIMEOUT_S
+    list_timeout_s: float = LIST_TIMEOUT_S
     send_timeout_s: float = SEND_TIMEOUT_S
     wake_timeout_s: float = WAKE_TIMEOUT_S
     wake_attempts: int = WAKE_ATTEMPTS
@@ -110,10 +113,6 @@ class ModemEvents:
 
     indices: tuple[int, ...] = ()
     relist: bool = False
-
-
-class ModemRestarted(ModemError):
-    """The modem printed its power-up burst while a command was in flight."""
 
 
 def open_port(url: str, baudrate: int = BAUDRATE) -> Any:
@@ -188,7 +187,7 @@ class Modem:
 
     def stored_messages(self) -> list[ReceivedSms]:
         """Every received message on the store (``AT+CMGL="ALL"``), oldest index first."""
-        response = self.command('AT+CMGL="ALL"')
+        response = self.command('AT+CMGL="ALL"', self.config.list_timeout_s)
         self._relist = False
         self._last_list = self.clock()
         messages = [
@@ -259,7 +258,9 @@ class Modem:
 
         Returns at once when indices are pending (they may have come during other commands) or
         a re-list is due. Temporary trouble (no answer, port gone) is logged and retried with
-        backoff inside the timeout; a permanent error (PinRequired …) is raised.
+        backoff inside the timeout; a permanent error (PinRequired …) is raised. A recovery
+        under way can overrun ``timeout`` (at most ``reset_attempts`` × ``wake_attempts`` ×
+        ``wake_timeout_s`` plus one set-up).
         """
         deadline = self.clock() + timeout
         while True:
@@ -331,9 +332,11 @@ class Modem:
                 last = exc
                 continue
             except CommandError as exc:
-                if exc.permanent:
+                # Just after power-up a modem refuses SMS commands (302, 500, 512 …) until
+                # "SMS Ready": retry those. A missing or locked SIM needs a person.
+                if exc.permanent and "SIM" in exc.meaning:
                     raise
-                last = exc
+                last = ModemError(f"set-up failed: {exc}")
                 continue
             self._needs_setup = False
             self._relist = True

@@ -61,6 +61,10 @@ class ModemTimeout(ModemError):
     """No final result within the command's timeout: the modem is busy, restarting or gone."""
 
 
+class ModemRestarted(ModemError):
+    """The modem printed its power-up burst (``RDY`` …) while a command was in flight."""
+
+
 class SendUnconfirmed(ModemTimeout):
     """The text and Ctrl-Z went out but no ``+CMGS`` answer came back in time.
 
