@@ -238,10 +238,9 @@ class Modem:
             self._write(data + CTRL_Z)
             try:
                 response = self._wait(self.clock() + self.config.send_timeout_s)
-            except ModemTimeout as exc:
-                raise SendUnconfirmed(f"no answer to {command} after the text: {exc}") from None
-            except ModemRestarted as exc:
-                raise SendUnconfirmed(f"{command}: {exc}") from None
+            except (ModemTimeout, ModemRestarted, PortError) as exc:
+                # The text and Ctrl-Z went out: it may have been sent. The caller decides.
+                raise SendUnconfirmed(f"{command} sent, no answer: {exc}") from None
         elif response.result.ok:  # OK without a prompt: not sent
             raise ModemError(f"{command}: OK without a '> ' prompt; nothing sent")
         _raise_for(response)

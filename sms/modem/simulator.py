@@ -75,6 +75,7 @@ class Faults:
     """Misbehaviour, switched on and off at any time (tests hold a reference)."""
 
     delay_s: float = 0.0  # every answer comes this late
+    send_delay_s: float = 0.0  # and +CMGS this much later again (the network round trip)
     send_error: int | None = None  # +CMS ERROR for the next AT+CMGS (one shot)
     read_error: int | None = None  # +CMS ERROR for the next AT+CMGR/AT+CMGL (one shot)
     garbage: bool = False  # a line of junk before every answer
@@ -377,7 +378,7 @@ class SimulatedModem:
             return
         self._reference = (self._reference + 1) % 256
         self.sent.append(SentSms(number, text, self._reference))
-        self._answer([f"+CMGS: {self._reference}"], "OK")
+        self._answer([f"+CMGS: {self._reference}"], "OK", extra_delay=self.faults.send_delay_s)
 
     # -- helpers --------------------------------------------------------------------------------
 
@@ -432,10 +433,10 @@ class SimulatedModem:
             meaning = CMS_ERRORS.get(code, ("unknown error", True))[0]
             self._answer([], f"+CMS ERROR: {meaning}")
 
-    def _answer(self, lines: list[str], final: str) -> None:
-        self._answer_units([[line.encode("latin-1")] for line in lines], final)
+    def _answer(self, lines: list[str], final: str, extra_delay: float = 0.0) -> None:
+        self._answer_units([[line.encode("latin-1")] for line in lines], final, extra_delay)
 
-    def _answer_units(self, units: list[list[bytes]], final: str) -> None:
+    def _answer_units(self, units: list[list[bytes]], final: str, extra_delay: float = 0.0) -> None:
         """Information units (a header and its text stay together), then the final result.
 
         With ``faults.urc_mid_reply`` held-back +CMTI lines (or a +CREG) go between units and
@@ -453,7 +454,7 @@ class SimulatedModem:
         if self.faults.urc_mid_reply and not units:
             out += self._mid_reply_urcs()
         out += f"\r\n{final}\r\n".encode("latin-1")
-        self._emit(bytes(out))
+        self._emit(bytes(out), extra_delay=extra_delay)
 
     def _mid_reply_urcs(self) -> bytes:
         lines = self._held_urcs or ["+CREG: 1"]
@@ -466,8 +467,8 @@ class SimulatedModem:
             data += self._body(text) + b"\r\n"
         self._out.append((self.clock(), data))
 
-    def _emit(self, data: bytes, delay: bool = True) -> None:
-        due = self.clock() + (self.faults.delay_s if delay else 0.0)
+    def _emit(self, data: bytes, delay: bool = True, extra_delay: float = 0.0) -> None:
+        due = self.clock() + (self.faults.delay_s if delay else 0.0) + extra_delay
         if self._out:
             due = max(due, self._out[-1][0])  # order is kept: nothing overtakes
         self._out.append((due, data))

@@ -19,6 +19,7 @@ from sms.modem import (
     ModemTimeout,
     PinRequired,
     ReceivedSms,
+    SendUnconfirmed,
     UnsendableText,
     receive_all,
 )
@@ -177,6 +178,22 @@ def test_send_errors_say_whether_to_retry(sim_pty) -> None:  # type: ignore[no-u
             with pytest.raises(UnsendableText):
                 modem.send(ALICE, text)
         assert len(sim.sent) == 1
+    finally:
+        modem.close()
+
+
+def test_a_send_whose_answer_never_comes_is_unconfirmed(sim_pty) -> None:  # type: ignore[no-untyped-def]
+    sim, server = sim_pty
+    modem = opened(server, send_timeout_s=0.3)
+    try:
+        sim.faults.send_delay_s = 0.6  # the network is slow to confirm
+        with pytest.raises(SendUnconfirmed) as error:
+            modem.send(ALICE, "#FHEAD 230 OK")
+        assert error.value.temporary
+        assert [s.text for s in sim.sent] == ["#FHEAD 230 OK"]  # why it is only "unconfirmed"
+        sim.faults.send_delay_s = 0.0
+        # The late +CMGS is drained by the reset and not taken as the next answer.
+        assert modem.send(ALICE, "#FHEAD 231 OK") == 2
     finally:
         modem.close()
 
