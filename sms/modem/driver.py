@@ -73,6 +73,7 @@ SEND_TIMEOUT_S = 60.0  # gsm-sms-at.md: +CMGS may take several seconds (network 
 WAKE_TIMEOUT_S = 1.0  # per "AT" while waking a modem; it may ignore commands after power-up
 WAKE_ATTEMPTS = 5
 SETTLE_S = 0.3  # quiet time that lets late answers to abandoned commands drain away
+DRAIN_LIMIT = 10  # a chatty modem (URCs all the time) must not keep the drain going forever
 RESET_ATTEMPTS = 3  # set-up attempts per recovery before backing off
 RECONNECT_DELAY_S = 1.0  # first backoff; doubles up to RECONNECT_MAX_S
 RECONNECT_MAX_S = 60.0
@@ -355,10 +356,15 @@ class Modem:
         raise ModemTimeout(f"no answer to AT after {self.config.wake_attempts} attempts")
 
     def _drain(self, seconds: float) -> None:
-        """Read and drop whatever arrives until the line stays quiet for ``seconds``."""
-        quiet_until = self.clock() + seconds
-        while self.clock() < quiet_until:
-            if self._pump():
+        """Let late answers to abandoned commands arrive (as noise) until the line stays quiet
+        for ``seconds`` (at most ``DRAIN_LIMIT`` times that): otherwise a late ``OK`` would be
+        taken as the answer to the next command. URCs among them are still handled."""
+        start = self.clock()
+        quiet_until = start + seconds
+        while self.clock() < min(quiet_until, start + DRAIN_LIMIT * seconds):
+            events = self._pump()
+            if events:
+                self._handle(events)
                 quiet_until = self.clock() + seconds
 
     def _setup(self) -> None:
