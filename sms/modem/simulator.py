@@ -104,6 +104,8 @@ class SimulatedModem:
         self._out: list[tuple[float, bytes]] = []
         self._held_urcs: list[str] = []
         self._deaf_until = 0.0
+        self._sms_ready_at = 0.0
+        self._last_due = 0.0  # when the last answer byte queued is due
         self._reference = 0
         self._power_up_state()
 
@@ -143,17 +145,22 @@ class SimulatedModem:
                     self._urc(line)
             return index
 
-    def reset(self, boot_s: float = 0.0) -> None:
+    def reset(self, boot_s: float = 0.0, sms_ready_s: float = 0.0) -> None:
         """Power-cycle: forget the settings (echo on, PDU mode, no indications), keep the SIM
-        store, stay deaf for ``boot_s`` and then print the power-up burst."""
+        store, stay deaf for ``boot_s`` and then print the power-up burst. For ``sms_ready_s``
+        more, SMS commands answer ``+CMS ERROR: 302`` and ``SMS Ready`` comes last, as on
+        SIMCom/Quectel modules whose SMS stack starts after the rest."""
         with self._lock:
             self._power_up_state()
             self._out.clear()
             self._held_urcs.clear()
+            self._last_due = 0.0
             now = self.clock()
             self._deaf_until = now + boot_s
-            burst = b"".join(f"\r\n{line}\r\n".encode() for line in POWER_UP_BURST)
-            self._out.append((now + boot_s, burst))
+            self._sms_ready_at = now + boot_s + sms_ready_s
+            *first, last = POWER_UP_BURST
+            self._out.append((now + boot_s, b"".join(f"\r\n{x}\r\n".encode() for x in first)))
+            self._out.append((self._sms_ready_at, f"\r\n{last}\r\n".encode()))
 
     def go_deaf(self, seconds: float) -> None:
         """Stop answering (and drop input) for ``seconds``."""
@@ -167,15 +174,14 @@ class SimulatedModem:
             self._out.append((self.clock(), junk + b"\r\n"))
 
     def take_output(self) -> bytes:
-        """Bytes due now, in order (a later chunk never overtakes an earlier one)."""
+        """Bytes due now, in the order they were queued."""
         with self._lock:
             now = self.clock()
-            ready = bytearray()
             if now < self._deaf_until:
                 return b""  # a hung modem prints nothing; what it owes comes out later
-            while self._out and self._out[0][0] <= now:
-                ready += self._out.pop(0)[1]
-            return bytes(ready)
+            ready = b"".join(data for due, data in self._out if due <= now)
+            self._out = [(due, data) for due, data in self._out if due > now]
+            return ready
 
     def receive(self, data: bytes) -> None:
         """Bytes typed by the driver."""
@@ -279,6 +285,9 @@ class SimulatedModem:
         return "+CPMS: " + ",".join([f"{used},{total}"] * 3)
 
     def _cpms_set(self, match: re.Match[str]) -> None:
+        if self.clock() < self._sms_ready_at:
+            self._error(302)  # the SMS stack is not up yet
+            return
         if any(m and m.upper() != self.storage for m in match.groups()):
             self._error(302)  # only the SIM store is simulated
             return
@@ -383,7 +392,7 @@ class SimulatedModem:
     # -- helpers --------------------------------------------------------------------------------
 
     def _text_ready(self) -> bool:
-        if not self.text_mode:
+        if self.clock() < self._sms_ready_at or not self.text_mode:
             self._error(302)  # a real modem in PDU mode would list PDUs; refuse instead
             return False
         return True
@@ -468,9 +477,10 @@ class SimulatedModem:
         self._out.append((self.clock(), data))
 
     def _emit(self, data: bytes, delay: bool = True, extra_delay: float = 0.0) -> None:
+        """Queue answer bytes; an answer never overtakes an earlier one (URCs may)."""
         due = self.clock() + (self.faults.delay_s if delay else 0.0) + extra_delay
-        if self._out:
-            due = max(due, self._out[-1][0])  # order is kept: nothing overtakes
+        due = max(due, self._last_due)
+        self._last_due = due
         self._out.append((due, data))
 
 

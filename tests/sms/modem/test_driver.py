@@ -266,6 +266,43 @@ def test_a_modem_reset_mid_session_loses_nothing_and_delivers_nothing_twice(serv
         modem.close()
 
 
+def test_a_modem_whose_sms_stack_starts_late_is_set_up_when_ready(sim_pty) -> None:  # type: ignore[no-untyped-def]
+    sim, server = sim_pty
+    db = Database(sim)
+    modem = opened(server)
+    try:
+        receive_all(modem, db.store, modem.poll_events(0.1))
+        sim.inject(ALICE, "#FCOURSE 10", WHEN)
+        sim.reset(boot_s=0.05, sms_ready_s=0.6)  # +CMS ERROR: 302 until "SMS Ready"
+        events = modem.poll_events(0.3)
+        while not events.relist:
+            events = modem.poll_events(0.5)
+        assert sim.commands.count('AT+CPMS="SM","SM","SM"') >= 3  # refused, then accepted
+        assert receive_all(modem, db.store, events) == 1 and db.texts() == ["#FCOURSE 10"]
+    finally:
+        modem.close()
+
+
+def test_a_message_whose_store_fails_stays_on_the_sim(sim_pty) -> None:  # type: ignore[no-untyped-def]
+    sim, server = sim_pty
+    db = Database(sim)
+    modem = opened(server)
+    try:
+        sim.inject(ALICE, "#FHEAD 10", WHEN)
+        sim.inject(BOB, "#FHEAD 20", WHEN)
+
+        def store(sms: ReceivedSms) -> None:
+            if sms.number == ALICE:
+                raise RuntimeError("database is locked")
+            db.store(sms)
+
+        assert receive_all(modem, store, modem.poll_events(0.5)) == 1
+        assert db.texts() == ["#FHEAD 20"]
+        assert [m.text for m in sim.store.values()] == ["#FHEAD 10"]  # kept for the next try
+    finally:
+        modem.close()
+
+
 def test_nothing_is_delivered_twice_across_a_driver_restart(served) -> None:  # type: ignore[no-untyped-def]
     sim, server = served
     db = Database(sim)
