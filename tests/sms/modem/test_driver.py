@@ -16,6 +16,7 @@ from sms.modem import (
     Modem,
     ModemConfig,
     ModemError,
+    ModemEvents,
     ModemTimeout,
     PinRequired,
     ReceivedSms,
@@ -91,6 +92,15 @@ def sim_pty() -> Iterator[tuple[SimulatedModem, ModemServer]]:
     sim = SimulatedModem(capacity=10)
     with ModemServer(sim, "pty") as server:
         yield sim, server
+
+
+def until_relist(modem: Modem, rounds: int = 10) -> ModemEvents:
+    """Poll until the driver asks for a re-list (it has recovered); fail after ``rounds``."""
+    for _ in range(rounds):
+        events = modem.poll_events(0.5)
+        if events.relist:
+            return events
+    raise AssertionError("the driver never recovered")
 
 
 def opened(server: ModemServer, **overrides: object) -> Modem:
@@ -256,8 +266,8 @@ def test_a_modem_reset_mid_session_loses_nothing_and_delivers_nothing_twice(serv
             receive_all(modem, store_then_modem_resets, events)
         assert error.value.temporary
         assert [m.text for m in sim.store.values()] == ["#HOLD"]  # still on the SIM
-        events = modem.poll_events(3.0)  # notices the restart, sets up again, asks to re-list
-        assert events.relist and modem.ready and modem.resets == 2  # first set-up, then again
+        events = until_relist(modem)  # notices the restart, sets up again, asks to re-list
+        assert modem.ready and modem.resets == 2  # the first set-up, then again
         assert sim.text_mode and not sim.echo
         assert receive_all(modem, db.store, events) == 1
         assert db.calls == 2 and db.texts() == ["#HOLD"]  # seen twice, stored once
@@ -274,9 +284,7 @@ def test_a_modem_whose_sms_stack_starts_late_is_set_up_when_ready(sim_pty) -> No
         receive_all(modem, db.store, modem.poll_events(0.1))
         sim.inject(ALICE, "#FCOURSE 10", WHEN)
         sim.reset(boot_s=0.05, sms_ready_s=0.6)  # +CMS ERROR: 302 until "SMS Ready"
-        events = modem.poll_events(0.3)
-        while not events.relist:
-            events = modem.poll_events(0.5)
+        events = until_relist(modem)
         assert sim.commands.count('AT+CPMS="SM","SM","SM"') >= 3  # refused, then accepted
         assert receive_all(modem, db.store, events) == 1 and db.texts() == ["#FCOURSE 10"]
     finally:
@@ -326,13 +334,13 @@ def test_a_modem_that_stops_answering_times_out_is_reset_and_recovers(served) ->
     modem = opened(server)
     try:
         receive_all(modem, db.store, modem.poll_events(0.1))
-        sim.go_deaf(0.8)
+        sim.go_deaf(1.2)  # longer than the 0.5 s command timeout, with room for a slow CI
         sim.inject(ALICE, "#FHEAD 90", WHEN)  # arrives while it is deaf
         with pytest.raises(ModemTimeout):
             modem.command("AT+CSQ")
         assert not modem.ready
-        events = modem.poll_events(4.0)
-        assert modem.ready and events.relist
+        events = until_relist(modem)
+        assert modem.ready
         assert receive_all(modem, db.store, events) == 1
         assert db.texts() == ["#FHEAD 90"] and sim.store == {}
         assert sim.commands.count("ATE0") >= 2  # the set-up ran again
@@ -360,9 +368,7 @@ def test_a_port_that_disappears_is_reopened() -> None:
             receive_all(modem, db.store, modem.poll_events(0.1))
             server.drop_client()
             sim.inject(ALICE, "#IR 1", WHEN)
-            events = modem.poll_events(3.0)
-            while not events.relist:  # the +CMTI may have been lost with the connection
-                events = modem.poll_events(3.0)
+            events = until_relist(modem)  # the +CMTI may have been lost with the connection
             assert modem.opens == 2
             assert receive_all(modem, db.store, events) == 1
             assert db.texts() == ["#IR 1"]

@@ -124,3 +124,19 @@ def test_scts_writes_the_zone_in_quarter_hours() -> None:
     assert scts(WHEN) == "26/11/23,04:05:00+00"
     local = datetime.fromisoformat("2026-11-23T14:05:00+10:00")
     assert scts(local) == "26/11/23,14:05:00+40"
+
+
+def test_status_queries_and_delete_all() -> None:
+    sim = SimulatedModem()
+    set_up(sim)
+    sim.inject("+614", "one", WHEN)
+    sim.inject("+614", "two", WHEN)
+    sim.take_output()
+    answers = {c: ask(sim, c)[-1] for c in ("AT+CSQ", "AT+CREG?", "AT+CNMI?", "ATI")}
+    assert answers["AT+CSQ"].lines == ("+CSQ: 21,99",)  # type: ignore[attr-defined]
+    assert answers["AT+CREG?"].lines == ("+CREG: 0,1",)  # type: ignore[attr-defined]
+    assert answers["AT+CNMI?"].lines == ("+CNMI: 2,1,0,0,0",)  # type: ignore[attr-defined]
+    assert answers["ATI"].lines[0] == "Shoreside"  # type: ignore[attr-defined]
+    assert ask(sim, "AT+CMGD=1,4")[-1].result.ok  # type: ignore[attr-defined]
+    assert sim.store == {}
+    assert ask(sim, "AT+BOGUS")[-1].result.kind == "ERROR"  # type: ignore[attr-defined]
