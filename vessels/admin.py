@@ -10,6 +10,7 @@ from typing import Any
 from django import forms
 from django.contrib import admin, messages
 from django.core.exceptions import PermissionDenied
+from django.db import models
 from django.db.models import QuerySet
 from django.http import Http404, HttpRequest, HttpResponse
 from django.shortcuts import redirect
@@ -229,6 +230,13 @@ class MissionItemInline(admin.TabularInline):
     model = MissionItem
     extra = 3
     fields = ["seq", "lat", "lon", "hold_s", "radius_m", "speed_mps"]
+    # Narrow number boxes: the admin's default width puts the last columns off screen.
+    formfield_overrides = {
+        models.FloatField: {
+            "widget": forms.NumberInput(attrs={"step": "any", "style": "width:8em"})
+        },
+        models.PositiveIntegerField: {"widget": forms.NumberInput(attrs={"style": "width:4em"})},
+    }
 
 
 class MissionImportForm(forms.Form):
