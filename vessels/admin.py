@@ -19,6 +19,7 @@ from django.urls import path, reverse
 from django.utils import timezone
 from django.utils.html import format_html, format_html_join
 
+from vessels import missionfiles
 from vessels.errors import MissionFileError
 from vessels.missions import DEFAULT_CRUISE_SPEED_MPS, format_distance, format_duration
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
@@ -355,6 +356,7 @@ class MissionAdmin(admin.ModelAdmin):
         if request.method == "POST" and form.is_valid():
             upload = form.cleaned_data["file"]
             try:
+                missionfiles.check_size(upload.size)
                 mission, skipped = mission_import(
                     content=upload.read(),
                     filename=upload.name,

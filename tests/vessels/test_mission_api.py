@@ -313,3 +313,10 @@ def test_the_openapi_schema_documents_the_mission_endpoints(planner: APIClient) 
     paths = planner.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()["paths"]
     for path in (MISSIONS, IMPORT, "/api/v1/missions/{id}/export/", "/api/v1/missions/{id}/send/"):
         assert path in paths
+
+
+def test_an_oversized_file_is_refused_unread(planner: APIClient) -> None:
+    big = b"QGC WPL 110\n" + b" " * missionfiles.MAX_FILE_BYTES
+    response = planner.post(IMPORT, upload("big.waypoints", big), format="multipart")
+    assert response.status_code == 400
+    assert "a mission file is at most 5.2 MB" in response.json()["detail"]["file"][0]

@@ -217,6 +217,7 @@ class MissionViewSet(viewsets.ModelViewSet):
         incoming.is_valid(raise_exception=True)
         data = incoming.validated_data
         upload = data["file"]
+        missionfiles.check_size(upload.size)
         mission, skipped = mission_import(
             content=upload.read(),
             filename=upload.name or "",
