@@ -48,9 +48,17 @@ class MissionItemSerializer(serializers.ModelSerializer):
         read_only_fields = ["seq"]  # the order of the list is the order of the mission
 
 
+@extend_schema_field({"oneOf": [{"type": "integer"}, {"type": "string", "enum": ["home"]}]})
+class LegEndField(serializers.Field):
+    """Where a leg ends: an item's seq, or "home" for the return leg."""
+
+    def to_representation(self, value: int | str) -> int | str:
+        return value
+
+
 class LegSerializer(serializers.Serializer):
     # "from" is a Python keyword: declared below under its wire name.
-    to = serializers.CharField(help_text='the next item\'s seq, or "home"')
+    to = LegEndField(help_text='the seq of the item the leg ends at, or "home"')
     distance_m = serializers.FloatField()
     bearing_deg = serializers.FloatField()
     speed_mps = serializers.FloatField()
