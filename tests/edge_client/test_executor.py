@@ -360,7 +360,7 @@ def test_mission_is_uploaded_with_home_first_and_run_to_the_end(
     assert (stored[0].x, stored[0].y) == (round(START[0] * 1e7), round(START[1] * 1e7))
     run_until_settled(executor)
     assert acks(outbox, c.uid)[-1] == ("done", "mission complete: reached waypoint 3")
-    assert sim.sim.mode_name == "HOLD"
+    assert sim.sim.mode_name == "AUTO" and sim.sim.complete  # Rover stops, still in AUTO
 
 
 def test_a_looping_mission_is_done_once_running(make_sim, make_link, outbox, commands_config):
