@@ -626,14 +626,15 @@ class RoverSim:
         self.current, self.nav_loaded, self.arrived_at, self.complete = seq, False, None, False
         self._send_current(seq)
 
-    def _load(self, items: list[Item]) -> None:
-        """A new mission (an accepted upload): kept as AP_Mission keeps it, not started."""
+    def load_mission(self, items: list[Item]) -> None:
+        """A new mission, as an accepted upload leaves it (a test may load one directly): kept
+        as AP_Mission keeps it (:func:`stored`), not started."""
         self.mission = [stored(i) for i in items]
         self.current, self.jumps, self.complete = 0, {}, False
         self.nav_loaded, self.arrived_at = False, None
 
     def _on_mission_clear_all(self, conn: Any, msg: Any, now: float) -> None:
-        self._load([])
+        self.load_mission([])
         self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
 
     def _mission_ack(self, conn: Any, code: int) -> None:
@@ -649,7 +650,7 @@ class RoverSim:
             self._mission_ack(conn, mavlink.MAV_MISSION_NO_SPACE)
             return
         if msg.count == 0:
-            self._load([])
+            self.load_mission([])
             self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
             return
         self.upload = {"conn": conn, "count": msg.count, "items": [], "started": now}
@@ -744,7 +745,7 @@ class RoverSim:
         code = mavlink.MAV_MISSION_ACCEPTED if self.reject_mission is None else self.reject_mission
         self.uploaded = {"conn": conn, "count": up["count"], "code": code}
         if code == mavlink.MAV_MISSION_ACCEPTED:
-            self._load(up["items"])
+            self.load_mission(up["items"])
         self._mission_ack(conn, code)
 
     # Download: vehicle → GCS -----------------------------------------------------------------

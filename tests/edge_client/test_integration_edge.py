@@ -179,6 +179,33 @@ def test_five_waypoint_mission_is_uploaded_read_back_and_followed(live_server, b
         )  # fmt: skip
 
 
+def test_a_mission_ending_home_is_done_with_the_boat_back_home(live_server, boat, rig):
+    vessel, key = boat
+    rig.sim()
+    rig.client(live_server.url, key)
+    wait_until(lambda: Fix.objects.filter(vessel=vessel).exists(), 20, "a first fix")
+    far = {"lat": -31.9790, "lon": 115.8212, "hold_s": 1, "radius_m": None, "speed_mps": 20}
+    items = [FIVE[0], far]
+    command = command_enqueue(vessel=vessel, kind="mission",
+                              params={"items": items, "end": "return_home"},
+                              created_by="test")  # fmt: skip
+    wait_until(lambda: command_status(command) in ("done", "failed"), 40, "the mission to end")
+    assert command.status == "done", (command.result_detail, rig.log()[-3000:])
+    # The track shows the boat out at the far waypoint, and back home after it.
+    wait_until(
+        lambda: any(distance_m(f.lat, f.lon, far["lat"], far["lon"]) <= 3
+                    for f in Fix.objects.filter(vessel=vessel)),
+        5, "a fix at the far waypoint",
+    )  # fmt: skip
+    out_at = min(f.recorded_at for f in Fix.objects.filter(vessel=vessel)
+                 if distance_m(f.lat, f.lon, far["lat"], far["lon"]) <= 3)  # fmt: skip
+    wait_until(
+        lambda: any(distance_m(f.lat, f.lon, *HOME) <= 10
+                    for f in Fix.objects.filter(vessel=vessel, recorded_at__gt=out_at)),
+        5, "a fix at home after the far waypoint",
+    )  # fmt: skip
+
+
 def test_after_an_outage_every_fix_is_on_the_server_exactly_once(live_server, boat, rig):
     vessel, key = boat
     proxy = TcpProxy(("127.0.0.1", urlsplit(live_server.url).port))
