@@ -38,7 +38,8 @@ mission-files.md, mavlink.io common.xml), not like a physics model:
   would, not simply what was sent.
 - Fault injection: ``drop`` / ``dup`` probabilities for messages (drop applies both ways),
   ``refuse_modes`` (COMMAND_ACK DENIED), ``reject_mission`` (MISSION_ACK with that code after
-  the last item), ``muted`` (stops talking, as a silent autopilot).
+  the last item), ``lose`` (message names never sent, e.g. MISSION_ITEM_REACHED), ``muted``
+  (stops talking, as a silent autopilot).
 """
 
 from __future__ import annotations
@@ -171,6 +172,7 @@ class RoverSim:
         dup: float = 0.0,
         refuse_modes: tuple[str, ...] = (),
         reject_mission: int | None = None,
+        lose: tuple[str, ...] = (),
         max_items: int = MAX_MISSION_ITEMS,
         wp_radius_m: float = DEFAULT_WP_RADIUS_M,
         seed: int | None = None,
@@ -204,6 +206,7 @@ class RoverSim:
         self.drop, self.dup = drop, dup
         self.refuse_modes = {m.upper() for m in refuse_modes}
         self.reject_mission = reject_mission
+        self.lose = {name.upper() for name in lose}  # message names never sent
         self.max_items = max_items
         self.prearm_delay_s = prearm_delay_s
         self.position_delay_s = position_delay_s  # a test may lower it to make the EKF ready
@@ -278,7 +281,7 @@ class RoverSim:
             return
         for c in targets:
             msg = getattr(c.mav, f"{name}_encode")(*args, **kwargs)
-            if self.rng.random() < self.drop:
+            if self.rng.random() < self.drop or name.upper() in self.lose:
                 self.counts["dropped"] += 1
                 continue
             copies = 2 if self.rng.random() < self.dup else 1
@@ -452,13 +455,13 @@ class RoverSim:
             return
         item = self.mission[self.current]
         rtl = item.command == NAV_RTL
+        hold = 0 if rtl else int(item.param1)  # whole seconds, as AP_Mission keeps it
         if self.arrived_at is None:
             left = self._drive_to(*(self.home if rtl else (item.x / 1e7, item.y / 1e7)), dt)
             if left > self.wp_radius:
                 return
             self.arrived_at = now
             self.events.append(Event(now, "arrived", item.seq))
-            hold = 0 if rtl else int(item.param1)
             if rtl:
                 text = "Reached destination"  # mode_rtl.cpp, run as Auto's RTL sub-mode
             elif hold:
@@ -467,7 +470,7 @@ class RoverSim:
                 text = f"Reached waypoint #{item.seq}"
             self.statustext(None, text, 6)
         self.vn = self.ve = 0.0  # a boat loiters at the waypoint while it holds
-        if not rtl and now - self.arrived_at < int(item.param1):
+        if now - self.arrived_at < hold:
             return
         if item.command == NAV_LOITER_TIME:
             self.statustext(None, "Finished active loiter", 4)

@@ -383,6 +383,26 @@ def test_a_mission_ending_home_is_done_once_the_final_rtl_has_brought_the_boat_h
     assert sim.sim.mode_name == "AUTO"  # Rover's mission RTL is a sub-mode of AUTO
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("end", "said"),
+    # return_home: Rover's "Reached destination", or our own position once RTL is current.
+    [("stop", "the autopilot says so"), ("return_home", "home")],
+)
+def test_a_mission_whose_item_reached_reports_are_lost_ends_on_rovers_own_words(
+    make_sim, make_link, outbox, commands_config, end, said
+):
+    sim = make_sim(lose=("MISSION_ITEM_REACHED",))
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("mission", mission_id=3, items=WAYPOINTS, end=end)
+    executor.execute(c)
+    run_until_settled(executor)
+    status, detail = acks(outbox, c.uid)[-1]
+    assert (status, said in detail) == ("done", True), detail
+    assert link.state.last_reached is None and sim.sim.complete
+
+
 def test_a_hold_longer_than_rover_can_keep_fails_before_anything_is_sent(
     make_sim, make_link, outbox, commands_config
 ):
