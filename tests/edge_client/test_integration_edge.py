@@ -204,6 +204,8 @@ def test_a_mission_ending_home_is_done_with_the_boat_back_home(live_server, boat
                     for f in Fix.objects.filter(vessel=vessel, recorded_at__gt=out_at)),
         5, "a fix at home after the far waypoint",
     )  # fmt: skip
+    # ... and the command was done only after that (one clock: boat and server share a host).
+    assert "home" in command.result_detail and command.finished_at > out_at
 
 
 def test_after_an_outage_every_fix_is_on_the_server_exactly_once(live_server, boat, rig):
