@@ -21,6 +21,7 @@ from edge_client.mission import (
     MAV_CMD_NAV_WAYPOINT,
     build_mission,
 )
+from edge_client.sim.rover import MAX_MISSION_ITEMS as SIM_MAX_MISSION_ITEMS
 from edge_client.sim.rover import MODES as SIM_MODES
 from edge_client.vehicle import MODE_NAMES
 
@@ -56,6 +57,10 @@ def test_every_range_is_the_catalogs() -> None:
 
 def test_the_mission_length_limit_is_the_catalogs() -> None:
     assert edge.MISSION_MAX_ITEMS == catalog.MISSION_MAX_ITEMS
+
+
+def test_the_simulated_rover_holds_as_many_mission_items_as_the_catalog_allows_for() -> None:
+    assert SIM_MAX_MISSION_ITEMS == catalog.MISSION_MAX_MAVLINK_ITEMS
 
 
 def test_rover_modes_are_the_catalogs_by_name_and_number() -> None:
