@@ -516,9 +516,9 @@ class Executor:
             self._ask_for_home()
         # Forget the last mission's progress: only what this one reports counts.
         state.last_reached = state.mission_seq = None
-        said = state.statustext_count
         self.link.set_mission_current(FIRST_ITEM)
         self._mode("AUTO")
+        said = state.statustext_count  # after the mode change: older texts are not this mission's
         if p["end"] == "loop":
             self._ack(command, DONE, "looping mission running in AUTO")
             return
