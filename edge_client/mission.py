@@ -129,6 +129,8 @@ def build_mission(
       runs a DO command as soon as the navigation command before it is done.
     - per mission item: NAV_WAYPOINT, param1 = hold in whole seconds (:func:`hold_seconds`),
       param2 = acceptance radius in metres (0 = the autopilot's WP_RADIUS; common.xml).
+      ArduPilot Rover keeps no per-waypoint radius (AP_Mission stores it for Plane only): it
+      uses WP_RADIUS and reads param2 back as 0.
     - ``end == "loop"``: DO_JUMP to item 1 repeating forever (param1 target, param2 -1);
       ``end == "return_home"``: NAV_RETURN_TO_LAUNCH; ``end == "stop"``: nothing.
 

@@ -15,7 +15,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
 from edge_client.geo import distance_m, offset  # noqa: E402
-from edge_client.mission import MissionItem, build_mission  # noqa: E402
+from edge_client.mission import MAV_CMD_NAV_LOITER_TIME, MissionItem, build_mission  # noqa: E402
 from edge_client.sim.rover import Item, RoverSim  # noqa: E402
 from tests.edge_client.conftest import free_port  # noqa: E402
 from tests.edge_client.helpers import ROOT, wait_until  # noqa: E402
@@ -185,8 +185,11 @@ def test_rtl_drives_home_says_so_and_stays_there(gcs):
     assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
     wait_for(conn, "STATUSTEXT", lambda t: t.text == "Reached destination")
     assert sim.mode_name == "RTL"  # a boat loiters at home, it does not change mode
+    # Rover says so within WP_RADIUS: the boat may still be closing the last metres.
+    home = (int(sim.home[0] * 1e7), int(sim.home[1] * 1e7))
+    wait_for(conn, "GLOBAL_POSITION_INT", lambda p: (p.lat, p.lon) == home)
     at = wait_for(conn, "GLOBAL_POSITION_INT", lambda p: True)
-    assert (at.lat, at.lon) == (int(sim.home[0] * 1e7), int(sim.home[1] * 1e7))
+    assert (at.lat, at.lon) == home and sim.mode_name == "RTL"
 
 
 def test_refused_modes_are_denied(gcs):
@@ -373,7 +376,7 @@ def test_a_loiter_time_item_holds_like_a_waypoint_hold(driven):
     d = driven()
     m = build_mission(HOME, [north(40), north(80)])
     items = [wp(i) for i in m]
-    items[2] = replace(items[2], command=19, param1=2.0)  # NAV_LOITER_TIME, 2 s
+    items[2] = replace(items[2], command=MAV_CMD_NAV_LOITER_TIME, param1=2.0)
     d.sim.load_mission(items)
     d.start()
     d.until(lambda: d.sim.complete)
