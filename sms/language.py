@@ -308,7 +308,8 @@ def answer_help(item: Item) -> Answer:
 def compose_reply(answers: Sequence[Answer]) -> str:
     """One SMS of GSM-7 text (at most 160 septets) answering every part of an SMS, in order.
 
-    1. Each answer is spelled in GSM-7 (never a UCS-2 reply) and, alone, is whole: the echo
+    1. Each answer is spelled in GSM-7 (never a UCS-2 reply), without the characters a
+       text-mode modem cannot type (the extension table, Ξ), and, alone, is whole: the echo
        with every value, then the outcome.
     2. An answer too long for its room is shortened at field boundaries: the outcome keeps its
        first words (``...``), then the echo keeps its first values (``+3 more``).
@@ -337,8 +338,17 @@ def compose_reply(answers: Sequence[Answer]) -> str:
 _PLAIN = re.compile(r"[A-Za-z0-9 !\"#$%&'()*+,\-./:;<=>?@_]*")
 
 
+# A text-mode modem takes a reply as bytes typed after its "> " prompt, where ESC (before every
+# extension-table character) cancels and Ctrl-Z (0x1A, which is Ξ) sends: sms/modem refuses
+# both (../shared/protocols/gsm-sms-at.md, Sending), so replies spell them plainly.
+_TYPEABLE = str.maketrans({"[": "(", "]": ")", "{": "(", "}": ")", "~": "-", "|": "/",
+                           "\\": "/", "^": "'", "€": "EUR", "\f": " ", "Ξ": "?"})  # fmt: skip
+
+
 def _fields(text: str) -> list[str]:
-    return (text if _PLAIN.fullmatch(text) else to_gsm7(text)).split()
+    if _PLAIN.fullmatch(text):
+        return text.split()
+    return to_gsm7(text).translate(_TYPEABLE).split()
 
 
 def _length(fields: Sequence[str]) -> int:

@@ -11,7 +11,7 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from commands import catalog
-from sms.gsm7 import SMS_SEPTETS, is_gsm7, septets
+from sms.gsm7 import ESCAPE, SMS_SEPTETS, encode, is_gsm7, septets
 from sms.language import (
     MAX_COMMANDS,
     MAX_TEXT,
@@ -27,6 +27,7 @@ from sms.language import (
 from sms.level2.inner import InnerCommandTable
 
 SHIPPED = InnerCommandTable.load()
+CTRL_Z = 0x1A  # Ξ in the GSM-7 basic table; ends the text after the modem's prompt
 PROVISIONAL = ("rudder", "ir", "holdwp", "fseq", "fcourse")
 
 
@@ -406,10 +407,26 @@ def test_an_echo_too_long_for_one_sms_is_shortened_at_a_value_boundary() -> None
     assert values == [str(i) for i in range(1, len(values) + 1)]
 
 
+def typeable_sms(text: str) -> bool:
+    """One SMS of GSM-7 that a text-mode modem can type after its prompt (no ESC, no Ctrl-Z)."""
+    return (
+        is_gsm7(text)
+        and not {ESCAPE, CTRL_Z} & set(encode(text))
+        and 0 < septets(text) <= SMS_SEPTETS
+    )
+
+
 def test_non_gsm_text_never_gives_a_non_gsm_reply() -> None:
     text = reply_to(parse("#FHEAD 230 😀; #ФЛАГ; #LIGHT ‘on’", table=SHIPPED))
-    assert is_gsm7(text)
+    assert typeable_sms(text)
     assert text.startswith("#FHEAD 230 ? ERR #FHEAD takes 1 value(s); extra: ?")
+
+
+def test_characters_a_modem_cannot_type_are_spelled_plainly() -> None:
+    # The extension table needs ESC and Ξ is Ctrl-Z: typed after "> " they cancel or send.
+    text = reply_to(parse("#FHEAD [230] {x} ~|\\^ €Ξ", table=SHIPPED))
+    assert typeable_sms(text)
+    assert "(230) (x) -//' EUR?" in text
 
 
 commands_text = st.builds(
@@ -434,8 +451,7 @@ def test_any_text_gives_items_and_a_one_sms_gsm_reply_never_an_exception(text: s
                 valid = catalog.parse_text(item.echo)
                 assert (valid.kind, valid.params) == (item.command, dict(item.params))
         reply = reply_to(items)
-        assert is_gsm7(reply)
-        assert 0 < septets(reply) <= SMS_SEPTETS
+        assert typeable_sms(reply)
 
 
 def test_the_plain_text_fast_path_passes_only_one_septet_gsm_characters() -> None:
