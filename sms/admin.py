@@ -167,7 +167,11 @@ class SmsMessageAdmin(admin.ModelAdmin):
 
     @admin.display(description="parsed")
     def parsed_pretty(self, message: SmsMessage) -> str:
-        return json.dumps(message.parsed, indent=1, ensure_ascii=False) if message.parsed else "–"
+        if not message.parsed:
+            return "–"
+        return format_html(
+            "<pre>{}</pre>", json.dumps(message.parsed, indent=1, ensure_ascii=False)
+        )
 
     @admin.display(description="in reply to")
     def reply_link(self, message: SmsMessage) -> str:

@@ -73,7 +73,10 @@ class SmsMessage(models.Model):
         max_length=RAW_NUMBER_MAX, help_text="As the modem reported it (sender or recipient)."
     )
     number_e164 = models.CharField(
-        max_length=E164_MAX, blank=True, help_text="Normalised; empty when not a phone number."
+        "E.164 number",
+        max_length=E164_MAX,
+        blank=True,
+        help_text="Normalised; empty when not a phone number.",
     )
     authorised_number = models.ForeignKey(
         AuthorisedNumber,

@@ -7,6 +7,7 @@ import datetime as dt
 import pytest
 from selenium.webdriver.common.by import By
 
+from sms.models import SmsMessage
 from sms.services import authorised_number_authorise, sms_handle_incoming
 from tests.browser.conftest import browser  # noqa: F401  (the fixture)
 from tests.browser.test_admin_in_browser import log_in, shot
@@ -37,3 +38,10 @@ def test_an_operator_reads_the_sms_log(browser, live_server, glider: Vessel) -> 
     assert "#FSEQ 1 1 4 ERR not enabled on this glider" in page
     assert "stranger" in page
     shot(browser, "sms-log")
+
+    waypoint = SmsMessage.objects.get(direction="in", text__startswith="#WAYPOINT")
+    browser.get(live_server.url + f"/admin/sms/smsmessage/{waypoint.pk}/change/")
+    page = browser.page_source
+    assert "#WAYPOINT 1 -32.0380 115.3325 QUEUED" in page  # its reply, inline
+    assert "/admin/commands/command/" in page  # the command it created
+    shot(browser, "sms-message")
