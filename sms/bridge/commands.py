@@ -1,0 +1,343 @@
+"""The database as the payload machine's command source (``sms.level2.payload.CommandSource``).
+
+References: ../shared/protocols/level2.md §8.4 (the status flag), §8.5 (request queued and its
+reply), §8.6 (the C&C's ACK/NAK queued message: a code and no reference to the command), §10
+(the C&C resends a request with the same tid ~2 s apart, 3 attempts); DESIGN §4 (lifecycle),
+§7 (the bridge); issue 11 §2.
+
+The vessel's queued commands go to the C&C oldest first, whatever created them (SMS, admin,
+API). Every step is a conditional UPDATE through ``commands.services`` and leaves a
+CommandEvent with the detail:
+
+1. ``pending_count`` (every status request, ~1/s): one indexed COUNT, or no query at all while a
+   command is in flight or in quarantine.
+2. ``take_next`` (request queued): the oldest queued command is encoded with the inner command
+   table; a refused one is failed with the table's reason and never sent; the first good one
+   is marked ``sent`` with the request's tid in its event, *before* the reply is written.
+3. ``complete`` / ``result_without_command``: an ACK makes it ``done`` (through
+   ``acknowledged``), a NAK ``failed`` with the code's meaning.
+4. ``expire_overdue`` (the bridge loop, about once a second): no answer within
+   ``result_timeout_s`` fails it, "no answer from the C&C box".
+
+Why one command at a time, and the quarantine: results carry no command reference (§8.6), so
+they can only be matched in order. With several commands out, one lost result would shift every
+later result onto the wrong command. With one out, the next result is unambiguous while the C&C
+answers. A timeout breaks that: A's result may still be on its way. If B went out at once, A's
+late result would be credited to B. So after a timeout nothing is handed over for
+``quarantine_s``: a result arriving then is A's, logged (and noted on A) and credited to nobody.
+A result later than timeout + quarantine is indistinguishable from the next command's answer:
+choose the two well above the C&C's worst delay. The cost: one command per status poll.
+
+Crash safety (the source keeps its state in the database, not in memory):
+
+* killed between the flag and the handover: the command is still ``queued``; the next request
+  takes it. Nothing was handed over.
+* killed after ``sent`` was committed (whether or not the reply left): on restart the newest
+  ``sent`` command is in flight again, with its timeout running from ``sent_at``. The tid of its
+  request is in its sent event, so the C&C's retry of that request (same tid, §10) is answered
+  with the same command, not with a second one; the machine's own reply cache died with it.
+  A result arriving after the restart comes as ``ResultWithoutCommand`` (the new machine has no
+  record of the handover) and is credited to the command in flight.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import logging
+import re
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from django.db.models import Q
+from django.utils import timezone
+
+from commands.lifecycle import OPEN, Status
+from commands.models import Command, CommandEvent
+from commands.services import (
+    command_complete,
+    command_expire_due,
+    command_fail_unsent,
+    command_mark_sent,
+    command_note,
+)
+from sms.level2.bodies import response_meaning
+from sms.level2.codec import Address, Frame, MessageType
+from sms.level2.errors import CommandRefused
+from sms.level2.inner import InnerCommandTable
+from sms.level2.payload import CommandResult, QueuedCommand
+from vessels.models import Vessel
+
+log = logging.getLogger(__name__)
+
+ACTOR = "wg-bridge"
+NO_ANSWER = "no answer from the C&C box"
+# The real C&C answered the one captured command at once (§8.6); three 20 s poll periods is
+# generous, and the quarantine equals it (see the module docstring).
+RESULT_TIMEOUT_S = 60.0
+QUARANTINE_S = 60.0
+# §10: a retry comes ~2 s after the first attempt, the third ~4 s after it; margin for a slow
+# restart. A request with the same tid after this window is a new one (the C&C's counter wraps).
+RETRY_WINDOW_S = 10.0
+
+# The sent event's detail carries the request's tid: what a restarted bridge needs to answer
+# the C&C's retry identically. Written and read only here.
+_HANDOVER = "handed over to the C&C in reply to request queued tid 0x{tid:04X} from {src}"
+_HANDOVER_UNKNOWN = "handed over to the C&C"
+_HANDOVER_TID = re.compile(r"request queued tid 0x([0-9A-F]{4}) from (\d+)/(\d+)")
+_OPEN = [s.value for s in OPEN]
+
+
+@dataclass(frozen=True)
+class InFlight:
+    """The command handed over whose answer has not come yet."""
+
+    pk: int
+    uid: str
+    sent_at: dt.datetime
+    queued: QueuedCommand | None  # None if the table no longer encodes it (after a restart)
+    tid: int | None = None  # of the request it answered: a retry with it gets the same reply
+    src: Address | None = None
+
+
+class DatabaseCommandSource:
+    """The vessel's queued commands, one handover at a time (see the module docstring).
+
+    Thread-safe: the serial runner's thread calls the CommandSource methods, the bridge loop
+    calls :meth:`expire_overdue`; whoever takes the in-flight command first settles it.
+    """
+
+    def __init__(
+        self,
+        *,
+        vessel: Vessel,
+        table: InnerCommandTable | None = None,
+        result_timeout_s: float = RESULT_TIMEOUT_S,
+        quarantine_s: float = QUARANTINE_S,
+        retry_window_s: float = RETRY_WINDOW_S,
+        clock: Callable[[], dt.datetime] = timezone.now,
+    ) -> None:
+        self.vessel = vessel
+        self.table = table or InnerCommandTable.load()
+        self.result_timeout = dt.timedelta(seconds=result_timeout_s)
+        self.quarantine = dt.timedelta(seconds=quarantine_s)
+        self.retry_window = dt.timedelta(seconds=retry_window_s)
+        self.clock = clock
+        self._lock = threading.Lock()
+        self._request: Frame | None = None
+        self._in_flight: InFlight | None = None
+        self._quarantine_until: dt.datetime | None = None
+        self._timed_out: InFlight | None = None  # the last command that timed out
+        self.late_results = 0
+        self.unmatched_results = 0
+        self._restore()
+
+    # -- CommandSource (called by the payload machine, in the Level 2 reply path) ----------------
+
+    def pending_count(self) -> int:
+        """Commands waiting; 0 while one is in flight or in quarantine (no query then)."""
+        now = self.clock()
+        with self._lock:
+            if self._in_flight is not None or self._quarantined(now):
+                return 0
+        return self._waiting(now).count()
+
+    def take_next(self) -> QueuedCommand | None:
+        """The command for this request queued: the same one again for a retry of the request
+        that took it, else the oldest queued one the table encodes (marked sent), else None."""
+        now = self.clock()
+        with self._lock:
+            request = self._request
+            flight = self._in_flight
+            if flight is not None:
+                return self._retried(flight, request, now)
+            if self._quarantined(now):
+                return None
+            command_expire_due(vessel=self.vessel, now=now)
+            while (command := self._waiting(now).order_by("created_at", "pk").first()) is not None:
+                handed = self._hand_over(command, request, now)
+                if handed is not None:
+                    return handed
+        return None
+
+    def complete(self, result: CommandResult) -> None:
+        """The machine matched a result to a handover it remembers: credit the command in
+        flight (after a timeout the machine's own order is stale; ours is the one that counts)."""
+        self._credit(result.code, result.meaning, machine_ident=result.ident)
+
+    # -- hooks for the bridge -------------------------------------------------------------------
+
+    def note_request(self, frame: Frame) -> None:
+        """The request being handled now (called before the machine handles it)."""
+        if frame.msg_type == MessageType.REQUEST_QUEUED:
+            with self._lock:
+                self._request = frame
+
+    def result_without_command(self, code: int) -> None:
+        """A result the machine could not match (it restarted since the handover): ours."""
+        self._credit(code, response_meaning(code), machine_ident=None)
+
+    def forget_request_ids(self) -> None:
+        """The C&C enumerated again (it restarted): its tids start over, so no later request
+        is a retry of the one that took the command in flight."""
+        with self._lock:
+            if self._in_flight is not None:
+                self._in_flight = replace(self._in_flight, tid=None, src=None)
+
+    def expire_overdue(self) -> bool:
+        """Fail the command in flight if its answer is overdue; True if one was failed."""
+        now = self.clock()
+        with self._lock:
+            flight = self._in_flight
+            if flight is None or now - flight.sent_at < self.result_timeout:
+                return False
+            self._in_flight = None
+            self._timed_out = flight
+            self._quarantine_until = now + self.quarantine
+        command = Command.objects.get(pk=flight.pk)
+        if command_complete(
+            command=command, status=Status.FAILED, detail=NO_ANSWER, actor=ACTOR, now=now
+        ):
+            log.warning("command %s failed: %s", flight.uid, NO_ANSWER)
+        return True
+
+    @property
+    def in_flight(self) -> InFlight | None:
+        with self._lock:
+            return self._in_flight
+
+    # -- internals ------------------------------------------------------------------------------
+
+    def _waiting(self, now: dt.datetime):  # type: ignore[no-untyped-def]
+        # status IN (open) repeats the condition of the partial index command_open_by_vessel
+        # (vessel, created_at), so the planner can use it; status = queued then narrows.
+        return (
+            Command.objects.filter(vessel_id=self.vessel.pk, status__in=_OPEN)
+            .filter(status=Status.QUEUED)
+            .filter(Q(expires_at__isnull=True) | Q(expires_at__gt=now))
+        )
+
+    def _quarantined(self, now: dt.datetime) -> bool:
+        return self._quarantine_until is not None and now < self._quarantine_until
+
+    def _hand_over(
+        self, command: Command, request: Frame | None, now: dt.datetime
+    ) -> QueuedCommand | None:
+        """Encode and mark sent; a refused command is failed. None if it was not handed over."""
+        try:
+            inner = self.table.encode(command.kind, command.params)
+        except CommandRefused as exc:
+            reason = f"refused by the inner command table: {exc.reason}"
+            command_fail_unsent(command=command, reason=reason, actor=ACTOR, now=now)
+            log.warning("command %s (%s) failed unsent: %s", command.uid, command.kind, reason)
+            return None
+        detail = (
+            _HANDOVER.format(tid=request.tid, src=f"{request.src_task}/{request.src_board}")
+            if request is not None
+            else _HANDOVER_UNKNOWN
+        )
+        if not command_mark_sent(command=command, actor=ACTOR, detail=detail, now=now):
+            return None  # cancelled, superseded or expired a moment ago: never hand it over
+        queued = QueuedCommand(str(command.uid), inner)
+        self._in_flight = InFlight(
+            command.pk,
+            str(command.uid),
+            now,
+            queued,
+            request.tid if request else None,
+            request.src if request else None,
+        )
+        return queued
+
+    def _retried(
+        self, flight: InFlight, request: Frame | None, now: dt.datetime
+    ) -> QueuedCommand | None:
+        """The same command for a retry of its request (§10), else None: one at a time."""
+        if (
+            request is None
+            or flight.queued is None
+            or (flight.tid, flight.src) != (request.tid, request.src)
+            or now - flight.sent_at > self.retry_window
+        ):
+            return None
+        detail = f"the C&C repeated request queued tid 0x{request.tid:04X}: answered again"
+        command_note(command=Command.objects.get(pk=flight.pk), detail=detail, actor=ACTOR, now=now)
+        log.info("command %s: %s", flight.uid, detail)
+        return flight.queued
+
+    def _credit(self, code: int, meaning: str, *, machine_ident: str | None) -> None:
+        now = self.clock()
+        with self._lock:
+            flight = self._in_flight
+            self._in_flight = None
+            timed_out = self._timed_out if self._quarantined(now) else None
+        answer = "ACK" if code == 0 else f"NAK {code}: {meaning}"
+        if flight is None:
+            self._log_unmatched(answer, timed_out, now)
+            return
+        if machine_ident is not None and machine_ident != flight.uid:
+            log.info("result the machine matched to %s credited to %s", machine_ident, flight.uid)
+        command = Command.objects.get(pk=flight.pk)
+        status = Status.DONE if code == 0 else Status.FAILED
+        detail = f"C&C: {answer}" if code else "C&C: ACK (accepted)"
+        if not command_complete(
+            command=command, status=status, detail=detail, actor=ACTOR, now=now
+        ):
+            note = f"the C&C answered {answer} after the command became {command.status}"
+            command_note(command=command, detail=note, actor=ACTOR, now=now)
+            log.warning("command %s: %s", flight.uid, note)
+
+    def _log_unmatched(self, answer: str, timed_out: InFlight | None, now: dt.datetime) -> None:
+        if timed_out is None:
+            self.unmatched_results += 1
+            log.warning("result from the C&C with no command in flight, dropped: %s", answer)
+            return
+        self.late_results += 1
+        note = f"late answer from the C&C after the timeout, not credited: {answer}"
+        command = Command.objects.get(pk=timed_out.pk)
+        command_note(command=command, detail=note, actor=ACTOR, now=now)
+        log.warning("command %s: %s", timed_out.uid, note)
+
+    def _restore(self) -> None:
+        """After a restart: the newest sent command is in flight again; older ones failed.
+
+        With one handover at a time there is at most one, unless an older bridge left more.
+        """
+        sent = list(
+            Command.objects.filter(vessel_id=self.vessel.pk, status=Status.SENT).order_by(
+                "-sent_at", "-pk"
+            )
+        )
+        if not sent:
+            return
+        newest, older = sent[0], sent[1:]
+        for command in older:
+            command_complete(command=command, status=Status.FAILED, detail=NO_ANSWER, actor=ACTOR)
+        try:
+            queued: QueuedCommand | None = QueuedCommand(
+                str(newest.uid), self.table.encode(newest.kind, newest.params)
+            )
+        except CommandRefused:
+            queued = None  # the table changed since: a retry cannot be answered identically
+        tid, src = _handover_request(newest)
+        self._in_flight = InFlight(
+            newest.pk, str(newest.uid), newest.sent_at or self.clock(), queued, tid, src
+        )
+        log.info(
+            "command %s was in flight when the bridge stopped: awaiting its answer",
+            newest.uid,
+        )
+
+
+def _handover_request(command: Command) -> tuple[int | None, Address | None]:
+    """The tid and source of the request that took ``command``, from its sent event."""
+    event = (
+        CommandEvent.objects.filter(command=command, to_status=Status.SENT, actor=ACTOR)
+        .exclude(from_status=Status.SENT)
+        .order_by("-at", "-pk")
+        .first()
+    )
+    match = _HANDOVER_TID.search(event.detail) if event else None
+    if match is None:
+        return None, None
+    return int(match[1], 16), Address(int(match[2]), int(match[3]))
