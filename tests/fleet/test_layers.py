@@ -63,6 +63,8 @@ PURE = [
     "sms/level2/bodies.py",
     "sms/level2/inner.py",
     "sms/level2/payload.py",
+    "sms/bridge/records.py",
+    "sms/bridge/machine.py",
     "edge_client/catalog.py",
     "edge_client/geo.py",
     "edge_client/mission.py",
