@@ -49,6 +49,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+from django.db import DatabaseError
 from django.db.models import Q
 from django.utils import timezone
 
@@ -100,6 +101,15 @@ class InFlight:
     src: Address | None = None
 
 
+@dataclass(frozen=True)
+class _Outcome:
+    flight: InFlight
+    status: Status
+    detail: str
+    answer: str
+    at: dt.datetime
+
+
 class DatabaseCommandSource:
     """The vessel's queued commands, one handover at a time (see the module docstring).
 
@@ -128,6 +138,7 @@ class DatabaseCommandSource:
         self._in_flight: InFlight | None = None
         self._quarantine_until: dt.datetime | None = None
         self._timed_out: InFlight | None = None  # the last command that timed out
+        self._unsaved: list[_Outcome] = []  # results the database refused, for flush_results
         self.late_results = 0
         self.unmatched_results = 0
         self._restore()
@@ -140,7 +151,11 @@ class DatabaseCommandSource:
         with self._lock:
             if self._in_flight is not None or self._quarantined(now):
                 return 0
-        return self._waiting(now).count()
+        try:
+            return self._waiting(now).count()
+        except DatabaseError as exc:  # e.g. locked for longer than the timeout: flag nothing
+            log.error("cannot count queued commands: %s", exc)
+            return 0
 
     def take_next(self) -> QueuedCommand | None:
         """The command for this request queued: the same one again for a retry of the request
@@ -153,11 +168,20 @@ class DatabaseCommandSource:
                 return self._retried(flight, request, now)
             if self._quarantined(now):
                 return None
-            command_expire_due(vessel=self.vessel, now=now)
-            while (command := self._waiting(now).order_by("created_at", "pk").first()) is not None:
-                handed = self._hand_over(command, request, now)
-                if handed is not None:
-                    return handed
+            try:
+                return self._take_oldest(request, now)
+            except DatabaseError as exc:
+                # Nothing was marked sent (its transaction rolled back): the C&C gets "nothing
+                # queued" and the command waits for the next poll.
+                log.error("cannot take a command: %s", exc)
+                return None
+
+    def _take_oldest(self, request: Frame | None, now: dt.datetime) -> QueuedCommand | None:
+        command_expire_due(vessel=self.vessel, now=now)
+        while (command := self._waiting(now).order_by("created_at", "pk").first()) is not None:
+            handed = self._hand_over(command, request, now)
+            if handed is not None:
+                return handed
         return None
 
     def complete(self, result: CommandResult) -> None:
@@ -194,12 +218,19 @@ class DatabaseCommandSource:
             self._in_flight = None
             self._timed_out = flight
             self._quarantine_until = now + self.quarantine
-        command = Command.objects.get(pk=flight.pk)
-        if command_complete(
-            command=command, status=Status.FAILED, detail=NO_ANSWER, actor=ACTOR, now=now
-        ):
-            log.warning("command %s failed: %s", flight.uid, NO_ANSWER)
+        log.warning("command %s: %s", flight.uid, NO_ANSWER)
+        self._settle(_Outcome(flight, Status.FAILED, NO_ANSWER, NO_ANSWER, now))
         return True
+
+    def flush_results(self) -> int:
+        """Write the results the database refused earlier (the bridge loop, a power-down
+        notice); returns how many are still unsaved."""
+        with self._lock:
+            unsaved, self._unsaved = self._unsaved, []
+        for outcome in unsaved:
+            self._settle(outcome)
+        with self._lock:
+            return len(self._unsaved)
 
     @property
     def in_flight(self) -> InFlight | None:
@@ -261,9 +292,16 @@ class DatabaseCommandSource:
         ):
             return None
         detail = f"the C&C repeated request queued tid 0x{request.tid:04X}: answered again"
-        command_note(command=Command.objects.get(pk=flight.pk), detail=detail, actor=ACTOR, now=now)
         log.info("command %s: %s", flight.uid, detail)
+        self._note(flight.pk, detail, now)
         return flight.queued
+
+    def _note(self, pk: int, detail: str, now: dt.datetime) -> None:
+        """A note on a command's log; the log line already went out, so a refusal is logged."""
+        try:
+            command_note(command=Command.objects.get(pk=pk), detail=detail, actor=ACTOR, now=now)
+        except DatabaseError as exc:
+            log.error("note not saved (%s): %s", exc, detail)
 
     def _credit(self, code: int, meaning: str, *, machine_ident: str | None) -> None:
         now = self.clock()
@@ -277,15 +315,34 @@ class DatabaseCommandSource:
             return
         if machine_ident is not None and machine_ident != flight.uid:
             log.info("result the machine matched to %s credited to %s", machine_ident, flight.uid)
-        command = Command.objects.get(pk=flight.pk)
         status = Status.DONE if code == 0 else Status.FAILED
         detail = f"C&C: {answer}" if code else "C&C: ACK (accepted)"
-        if not command_complete(
-            command=command, status=status, detail=detail, actor=ACTOR, now=now
-        ):
-            note = f"the C&C answered {answer} after the command became {command.status}"
-            command_note(command=command, detail=note, actor=ACTOR, now=now)
-            log.warning("command %s: %s", flight.uid, note)
+        self._settle(_Outcome(flight, status, detail, answer, now))
+
+    def _settle(self, outcome: _Outcome) -> bool:
+        """Write one outcome; if the database refuses, keep it for :meth:`flush_results`."""
+        try:
+            command = Command.objects.get(pk=outcome.flight.pk)
+            if not command_complete(
+                command=command,
+                status=outcome.status,
+                detail=outcome.detail,
+                actor=ACTOR,
+                now=outcome.at,
+            ):
+                note = (
+                    f"the C&C answered {outcome.answer} after the command became {command.status}"
+                )
+                if outcome.answer == NO_ANSWER:
+                    note = f"{NO_ANSWER}, but the command had become {command.status}"
+                command_note(command=command, detail=note, actor=ACTOR, now=outcome.at)
+                log.warning("command %s: %s", outcome.flight.uid, note)
+        except DatabaseError as exc:
+            log.error("command %s: result kept for later, database: %s", outcome.flight.uid, exc)
+            with self._lock:
+                self._unsaved.append(outcome)
+            return False
+        return True
 
     def _log_unmatched(self, answer: str, timed_out: InFlight | None, now: dt.datetime) -> None:
         if timed_out is None:
@@ -294,9 +351,8 @@ class DatabaseCommandSource:
             return
         self.late_results += 1
         note = f"late answer from the C&C after the timeout, not credited: {answer}"
-        command = Command.objects.get(pk=timed_out.pk)
-        command_note(command=command, detail=note, actor=ACTOR, now=now)
         log.warning("command %s: %s", timed_out.uid, note)
+        self._note(timed_out.pk, note, now)
 
     def _restore(self) -> None:
         """After a restart: the newest sent command is in flight again; older ones failed.

@@ -296,3 +296,25 @@ def test_expired_and_cancelled_commands_are_never_handed_over(glider: Vessel, cl
     assert handed_over(feed(machine, source, queued(0x1A))) is None
     expiring.refresh_from_db()
     assert expiring.status == Status.EXPIRED
+
+
+def test_a_result_the_database_refuses_is_kept_and_written_by_flush_results(
+    glider: Vessel, clock: Clock, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from django.db import OperationalError
+
+    from sms.bridge import commands as module
+
+    def locked(**_kw: object) -> bool:
+        raise OperationalError("database is locked")
+
+    command = enqueue(glider, "fhead", bearing=230)
+    machine, source = start(glider, clock)
+    feed(machine, source, queued(0x1A))
+    monkeypatch.setattr(module, "command_complete", locked)
+    feed(machine, source, result(0, 0x1B))  # the machine's reply path does not crash
+    assert source.flush_results() == 1
+    monkeypatch.undo()
+    assert source.flush_results() == 0
+    command.refresh_from_db()
+    assert command.status == Status.DONE
