@@ -48,8 +48,9 @@ import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any
 
-from django.db import DatabaseError
+from django.db import DatabaseError, OperationalError, connection
 from django.db.models import Q
 from django.utils import timezone
 
@@ -87,6 +88,28 @@ _HANDOVER = "handed over to the C&C in reply to request queued tid 0x{tid:04X} f
 _HANDOVER_UNKNOWN = "handed over to the C&C"
 _HANDOVER_TID = re.compile(r"request queued tid 0x([0-9A-F]{4}) from (\d+)/(\d+)")
 _OPEN = [s.value for s in OPEN]
+OPEN_INDEX = "command_open_by_vessel"  # commands.models.Command.Meta.indexes
+_NO_INDEX = object()  # _query_waiting could not use OPEN_INDEX
+# Queued commands past expires_at are never offered (the queries skip them); marking them
+# expired walks the vessel's history, so the bridge loop does it this often, not every request.
+EXPIRY_SWEEP_S = 60.0
+
+
+def _waiting_sql(columns: str, tail: str = "") -> str:
+    """SELECT ``columns`` over a vessel's queued, unexpired commands, through the partial index
+    of open commands (see :meth:`DatabaseCommandSource._query_waiting`)."""
+    qn = connection.ops.quote_name
+    hint = f" INDEXED BY {qn(OPEN_INDEX)}" if connection.vendor == "sqlite" else ""
+    # Literals, not parameters, so that SQLite can see the index's own condition (our own
+    # enum values: nothing from outside goes into the text).
+    open_statuses = ", ".join(f"'{value}'" for value in _OPEN)
+    status = qn("status")
+    expires = qn("expires_at")
+    return (
+        f"SELECT {columns} FROM {qn(Command._meta.db_table)}{hint}"
+        f" WHERE {qn('vessel_id')} = %s AND {status} IN ({open_statuses}) AND {status} = %s"
+        f" AND ({expires} IS NULL OR {expires} > %s){tail}"
+    )
 
 
 @dataclass(frozen=True)
@@ -139,6 +162,8 @@ class DatabaseCommandSource:
         self._quarantine_until: dt.datetime | None = None
         self._timed_out: InFlight | None = None  # the last command that timed out
         self._unsaved: list[_Outcome] = []  # results the database refused, for flush_results
+        self._indexed_query_failed = False  # see _query_waiting
+        self._next_sweep: dt.datetime | None = None  # of command_expire_due
         self.late_results = 0
         self.unmatched_results = 0
         self._restore()
@@ -152,7 +177,7 @@ class DatabaseCommandSource:
             if self._in_flight is not None or self._quarantined(now):
                 return 0
         try:
-            return self._waiting(now).count()
+            return self._count_waiting(now)
         except DatabaseError as exc:  # e.g. locked for longer than the timeout: flag nothing
             log.error("cannot count queued commands: %s", exc)
             return 0
@@ -177,8 +202,7 @@ class DatabaseCommandSource:
                 return None
 
     def _take_oldest(self, request: Frame | None, now: dt.datetime) -> QueuedCommand | None:
-        command_expire_due(vessel=self.vessel, now=now)
-        while (command := self._waiting(now).order_by("created_at", "pk").first()) is not None:
+        while (command := self._oldest_waiting(now)) is not None:
             handed = self._hand_over(command, request, now)
             if handed is not None:
                 return handed
@@ -209,8 +233,16 @@ class DatabaseCommandSource:
                 self._in_flight = replace(self._in_flight, tid=None, src=None)
 
     def expire_overdue(self) -> bool:
-        """Fail the command in flight if its answer is overdue; True if one was failed."""
+        """One unit for the bridge loop: fail the command in flight if its answer is overdue
+        (True if one was failed); every EXPIRY_SWEEP_S, mark queued commands past their
+        expires_at expired."""
         now = self.clock()
+        if self._next_sweep is None or now >= self._next_sweep:
+            self._next_sweep = now + dt.timedelta(seconds=EXPIRY_SWEEP_S)
+            try:
+                command_expire_due(vessel=self.vessel, now=now)
+            except DatabaseError as exc:
+                log.error("cannot expire queued commands: %s", exc)
         with self._lock:
             flight = self._in_flight
             if flight is None or now - flight.sent_at < self.result_timeout:
@@ -238,6 +270,51 @@ class DatabaseCommandSource:
             return self._in_flight
 
     # -- internals ------------------------------------------------------------------------------
+
+    def _count_waiting(self, now: dt.datetime) -> int:
+        found = self._query_waiting("COUNT(*)", "", now)
+        return self._waiting(now).count() if found is _NO_INDEX else int(found)
+
+    def _oldest_waiting(self, now: dt.datetime) -> Command | None:
+        qn = connection.ops.quote_name
+        tail = f" ORDER BY {qn('created_at')}, {qn('id')} LIMIT 1"
+        found = self._query_waiting(qn("id"), tail, now)
+        if found is _NO_INDEX:
+            return self._waiting(now).order_by("created_at", "pk").first()
+        return None if found is None else Command.objects.filter(pk=found).order_by().first()
+
+    def _query_waiting(self, columns: str, tail: str, now: dt.datetime) -> Any:
+        """The first column of the first row of :func:`_waiting_sql` (None: no row), or
+        _NO_INDEX if the index cannot be used (the caller then asks the ORM).
+
+        The hot path: every status request counts. Measured (bench/bridge.py, 20,000 finished
+        commands): the ORM's COUNT took ~12 ms on SQLite, which walked the vessel's whole
+        history through the plain vessel_id index; it cannot match a partial index's condition
+        to bound parameters, and without ANALYZE statistics it does not prefer it even with
+        literals. So: the index's condition spelled out and, on SQLite, INDEXED BY (~0.1 ms).
+        Should the index ever change, the ORM takes over (logged) rather than the flag going
+        silent.
+        """
+        if self._indexed_query_failed:
+            return _NO_INDEX
+        params = [
+            self.vessel.pk,
+            Status.QUEUED.value,
+            connection.ops.adapt_datetimefield_value(now),
+        ]
+        try:
+            with connection.cursor() as cursor:
+                cursor.execute(_waiting_sql(columns, tail), params)
+                row = cursor.fetchone()
+        except OperationalError as exc:
+            if "no query solution" not in str(exc) and "no such index" not in str(exc):
+                raise
+            self._indexed_query_failed = True
+            log.error(
+                "queued commands: cannot use index %s (%s); the ORM takes over", OPEN_INDEX, exc
+            )
+            return _NO_INDEX
+        return None if row is None else row[0]
 
     def _waiting(self, now: dt.datetime):  # type: ignore[no-untyped-def]
         # status IN (open) repeats the condition of the partial index command_open_by_vessel

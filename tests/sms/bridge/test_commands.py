@@ -294,6 +294,7 @@ def test_expired_and_cancelled_commands_are_never_handed_over(glider: Vessel, cl
     clock.advance(10)
     assert source.pending_count() == 0
     assert handed_over(feed(machine, source, queued(0x1A))) is None
+    source.expire_overdue()  # the bridge loop's sweep
     expiring.refresh_from_db()
     assert expiring.status == Status.EXPIRED
 
@@ -318,3 +319,26 @@ def test_a_result_the_database_refuses_is_kept_and_written_by_flush_results(
     assert source.flush_results() == 0
     command.refresh_from_db()
     assert command.status == Status.DONE
+
+
+def test_the_hot_count_goes_through_the_open_commands_index(glider: Vessel, clock: Clock) -> None:
+    enqueue(glider, "light", state="ON")
+    _machine, source = start(glider, clock)
+    assert source.pending_count() == 1
+    assert not source._indexed_query_failed
+
+
+def test_without_that_index_the_orm_counts_and_nothing_goes_silent(
+    glider: Vessel, clock: Clock, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from django.db import connection
+
+    from sms.bridge import commands as module
+
+    if connection.vendor != "sqlite":
+        pytest.skip("INDEXED BY is SQLite's")
+    enqueue(glider, "light", state="ON")
+    monkeypatch.setattr(module, "OPEN_INDEX", "no_such_index")
+    machine, source = start(glider, clock)
+    assert source.pending_count() == 1 and source._indexed_query_failed
+    assert handed_over(feed(machine, source, queued(0x1A))) is not None

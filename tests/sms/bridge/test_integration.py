@@ -177,4 +177,3 @@ def test_retries_and_duplicates_hand_nothing_over_twice_and_fixes_come_once_each
     fix = Fix.objects.filter(vessel=glider).latest("recorded_at")
     assert fix.readings == CAPTURED
     assert glider_bridge.readings.state.pressure_kpa == 100.0
-
