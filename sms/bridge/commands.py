@@ -38,6 +38,7 @@ Crash safety (the source keeps its state in the database, not in memory):
   with the same command, not with a second one; the machine's own reply cache died with it.
   A result arriving after the restart comes as ``ResultWithoutCommand`` (the new machine has no
   record of the handover) and is credited to the command in flight.
+* killed during a quarantine: it runs on after the restart (read back from the timeout's event).
 """
 
 from __future__ import annotations
@@ -435,7 +436,10 @@ class DatabaseCommandSource:
         """After a restart: the newest sent command is in flight again; older ones failed.
 
         With one handover at a time there is at most one, unless an older bridge left more.
+        A quarantine still running when the bridge stopped runs on (else a late answer for
+        the command that timed out could be credited to the next one after a quick restart).
         """
+        self._restore_quarantine()
         sent = list(
             Command.objects.filter(vessel_id=self.vessel.pk, status=Status.SENT).order_by(
                 "-sent_at", "-pk"
@@ -460,6 +464,25 @@ class DatabaseCommandSource:
             "command %s was in flight when the bridge stopped: awaiting its answer",
             newest.uid,
         )
+
+    def _restore_quarantine(self) -> None:
+        now = self.clock()
+        last = (
+            CommandEvent.objects.filter(
+                command__vessel_id=self.vessel.pk,
+                to_status=Status.FAILED,
+                actor=ACTOR,
+                detail=NO_ANSWER,
+                at__gt=now - self.quarantine,
+            )
+            .select_related("command")
+            .order_by("-at", "-pk")
+            .first()
+        )
+        if last is not None:
+            command = last.command
+            self._quarantine_until = last.at + self.quarantine
+            self._timed_out = InFlight(command.pk, str(command.uid), last.at, None)
 
 
 def _handover_request(command: Command) -> tuple[int | None, Address | None]:

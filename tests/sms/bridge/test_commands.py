@@ -342,3 +342,22 @@ def test_without_that_index_the_orm_counts_and_nothing_goes_silent(
     machine, source = start(glider, clock)
     assert source.pending_count() == 1 and source._indexed_query_failed
     assert handed_over(feed(machine, source, queued(0x1A))) is not None
+
+
+def test_a_quarantine_survives_a_restart(glider: Vessel, clock: Clock) -> None:
+    a = enqueue(glider, "light", state="ON")
+    b = enqueue(glider, "fhead", bearing=90)
+    machine, source = start(glider, clock)
+    feed(machine, source, queued(0x1A))
+    clock.advance(TIMEOUT_S + 1)
+    source.expire_overdue()
+    clock.advance(5)
+    machine, source = start(glider, clock)  # restarted within the quarantine
+    assert source.pending_count() == 0
+    feed(machine, source, result(0, 0x21))  # A's late answer
+    b.refresh_from_db()
+    assert b.status == Status.QUEUED
+    assert trail(a)[-1][2].startswith("late answer from the C&C after the timeout")
+    clock.advance(QUARANTINE_S)
+    machine, source = start(glider, clock)
+    assert source.pending_count() == 1
