@@ -10,5 +10,19 @@
 * ``power``: what a power-down notice runs;
 * ``dispatch``: routes the machine's notifications to the above.
 
+Wiring (as ``tests/sms/bridge/test_integration.py`` does; ``run_wg_bridge`` comes next)::
+
+    readings = LatestReadings()                     # its .state is the status block's source
+    source = DatabaseCommandSource(vessel=glider)   # result_timeout_s=, quarantine_s=
+    machine = BridgeMachine(PayloadConfig(...), source=source, sensors=readings.state)
+    fixes = FixRecorder(vessel=glider, readings=readings.snapshot)
+    dispatch = Dispatcher(machine=machine, source=source, fixes=fixes, power_command=argv)
+    runner = PayloadRunner(url, machine, on_notification=dispatch)    # its own thread
+    subscriber = SensorSubscriber(host, list(RecordTable.load().records.values()), readings)
+    # thread: with subscriber: subscriber.run(stop_event)
+    # the loop, about once a second: source.expire_overdue(); fixes.flush_if_due();
+    #   source.flush_results(); close_old_connections()
+    # on stop: runner.stop(); fixes.flush(); source.flush_results()
+
 Nothing is imported here, so ``python -m sms.bridge.sensor_standin`` needs no Django.
 """

@@ -11,7 +11,8 @@ reply. It never raises: a failing handler is logged and the runner keeps serving
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 
 from sms.level2.payload import (
     CommandCompleted,
@@ -32,6 +33,10 @@ from .power import COMMAND_TIMEOUT_S, PowerDownOutcome, handle_power_down
 
 log = logging.getLogger(__name__)
 
+# §8.8: nobody knows how often the C&C repeats a power notice; one run of the power command per
+# this many seconds (a repeat is logged with its frame, not run again).
+POWER_DOWN_REPEAT_S = 60.0
+
 
 class Dispatcher:
     """Route each notification: fixes to the recorder, unmatched results and re-enumerations to
@@ -45,13 +50,16 @@ class Dispatcher:
         fixes: FixRecorder,
         power_command: Sequence[str] | None = None,
         power_timeout_s: float = COMMAND_TIMEOUT_S,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.machine = machine
         self.source = source
         self.fixes = fixes
         self.power_command = power_command
         self.power_timeout_s = power_timeout_s
+        self.clock = clock
         self.power_downs: list[PowerDownOutcome] = []
+        self._last_power_down: float | None = None
         self.errors = 0
 
     def __call__(self, note: Notification) -> None:
@@ -83,6 +91,11 @@ class Dispatcher:
     def _power_down(self, note: PowerDown) -> None:
         frame = self.machine.last_power_frame
         raw = bytes(frame) if frame is not None and frame.body == note.body else note.body
+        now = self.clock()
+        if self._last_power_down is not None and now - self._last_power_down < POWER_DOWN_REPEAT_S:
+            log.warning("power-down notice repeated, not acted on again: %s", raw.hex(" "))
+            return
+        self._last_power_down = now
         self.power_downs.append(
             handle_power_down(
                 raw,

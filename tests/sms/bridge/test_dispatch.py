@@ -104,3 +104,22 @@ def test_a_failing_handler_is_logged_and_the_link_goes_on(
     assert dispatch.errors == 1
     (reply,) = run(machine, dispatch, status(0x1A))
     assert reply.msg_type == MessageType.ACK
+
+
+def test_a_repeated_power_down_notice_is_acted_on_once_a_minute(
+    glider: Vessel, clock: Clock
+) -> None:
+    machine, dispatch = bridge(glider, clock)
+    now = [0.0]
+    dispatch.clock = lambda: now[0]
+    for tid in (0x30, 0x31):
+        notice = Frame.make(MessageType.POWER, b"\x01\x00", tid=tid, dest=BROADCAST, src=CC_MAIN)
+        run(machine, dispatch, notice)
+    assert len(dispatch.power_downs) == 1
+    now[0] += 61
+    run(
+        machine,
+        dispatch,
+        Frame.make(MessageType.POWER, b"\x01", tid=0x32, dest=BROADCAST, src=CC_MAIN),
+    )
+    assert len(dispatch.power_downs) == 2
