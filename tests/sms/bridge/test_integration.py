@@ -23,11 +23,14 @@ from sms.bridge.machine import BridgeMachine
 from sms.bridge.records import RecordTable
 from sms.bridge.sensor_standin import CAPTURED, RecordServer
 from sms.bridge.sensors import LatestReadings, SensorSubscriber
+from sms.level2.bodies import StatusReply
 from sms.level2.payload import PayloadConfig
 from sms.level2.runner import PayloadRunner, PtyPort, SerialLink
 from sms.level2.simulator import CcSimulator, SimConfig, VirtualClock
 from telemetry.models import Fix
 from vessels.models import Vessel
+
+from .conftest import status
 
 pytestmark = [pytest.mark.slow, pytest.mark.django_db(transaction=True)]
 
@@ -177,3 +180,14 @@ def test_retries_and_duplicates_hand_nothing_over_twice_and_fixes_come_once_each
     fix = Fix.objects.filter(vessel=glider).latest("recorded_at")
     assert fix.readings == CAPTURED
     assert glider_bridge.readings.state.pressure_kpa == 100.0
+
+
+def test_status_replies_carry_the_boards_readings(glider_bridge: Glider) -> None:
+    link = SerialLink(glider_bridge.pty)
+    link.send(bytes(status(0x50)))
+    reply = link.receive(2.0)
+    assert reply is not None and reply.tid == 0x50
+    block = StatusReply.from_bytes(reply.body).block
+    # the stand-in sends the captured readings (level2.md §8.4): 21 °C, 35 %, 21 °C, 100 kPa
+    assert (block.humidity_temp_c, block.humidity_pct) == (21, 35)
+    assert (block.pressure_temp_c, block.pressure_kpa) == (21, 100)
