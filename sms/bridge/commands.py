@@ -74,7 +74,11 @@ from vessels.models import Vessel
 log = logging.getLogger(__name__)
 
 ACTOR = "wg-bridge"
+# A command's result_detail, as the bridge writes it (the SMS replies read these):
+ACK_DETAIL = "C&C: ACK (accepted)"
+NAK_DETAIL = "C&C: NAK {code}: {meaning}"  # meaning: sms.level2.bodies.response_meaning
 NO_ANSWER = "no answer from the C&C box"
+REFUSED_DETAIL = "refused by the inner command table: {reason}"
 # The real C&C answered the one captured command at once (§8.6); three 20 s poll periods is
 # generous, and the quarantine equals it (see the module docstring).
 RESULT_TIMEOUT_S = 60.0
@@ -336,7 +340,7 @@ class DatabaseCommandSource:
         try:
             inner = self.table.encode(command.kind, command.params)
         except CommandRefused as exc:
-            reason = f"refused by the inner command table: {exc.reason}"
+            reason = REFUSED_DETAIL.format(reason=exc.reason)
             command_fail_unsent(command=command, reason=reason, actor=ACTOR, now=now)
             log.warning("command %s (%s) failed unsent: %s", command.uid, command.kind, reason)
             return None
@@ -394,7 +398,7 @@ class DatabaseCommandSource:
         if machine_ident is not None and machine_ident != flight.uid:
             log.info("result the machine matched to %s credited to %s", machine_ident, flight.uid)
         status = Status.DONE if code == 0 else Status.FAILED
-        detail = f"C&C: {answer}" if code else "C&C: ACK (accepted)"
+        detail = NAK_DETAIL.format(code=code, meaning=meaning) if code else ACK_DETAIL
         self._settle(_Outcome(flight, status, detail, answer, now))
 
     def _settle(self, outcome: _Outcome) -> bool:
