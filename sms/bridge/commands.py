@@ -52,7 +52,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from django.db import DatabaseError, OperationalError, connection
-from django.db.models import Q
+from django.db.models import Q, QuerySet
 from django.utils import timezone
 
 from commands.lifecycle import OPEN, Status
@@ -321,7 +321,7 @@ class DatabaseCommandSource:
             return _NO_INDEX
         return None if row is None else row[0]
 
-    def _waiting(self, now: dt.datetime):  # type: ignore[no-untyped-def]
+    def _waiting(self, now: dt.datetime) -> QuerySet[Command]:
         # status IN (open) repeats the condition of the partial index command_open_by_vessel
         # (vessel, created_at), so the planner can use it; status = queued then narrows.
         return (
