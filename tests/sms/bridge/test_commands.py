@@ -361,3 +361,22 @@ def test_a_quarantine_survives_a_restart(glider: Vessel, clock: Clock) -> None:
     clock.advance(QUARANTINE_S)
     machine, source = start(glider, clock)
     assert source.pending_count() == 1
+
+
+@pytest.mark.parametrize(
+    ("kind", "params"),
+    [
+        ("fhead", {"bearing": 0}),
+        ("light", {"state": "OFF"}),
+        ("waypoint", {"index": 254, "lat": -32.0, "lon": 115.5}),
+        ("hold", {}),
+    ],
+)
+def test_every_sourced_kind_goes_out_as_the_services_stored_it(
+    glider: Vessel, clock: Clock, kind: str, params: dict[str, object]
+) -> None:
+    command = enqueue(glider, kind, **params)
+    machine, source = start(glider, clock)
+    assert handed_over(feed(machine, source, queued(0x1A))) is not None
+    command.refresh_from_db()
+    assert command.status == Status.SENT
