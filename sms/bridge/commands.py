@@ -17,7 +17,15 @@ CommandEvent with the detail:
 3. ``complete`` / ``result_without_command``: an ACK makes it ``done`` (through
    ``acknowledged``), a NAK ``failed`` with the code's meaning.
 4. ``expire_overdue`` (the bridge loop, about once a second): no answer within
-   ``result_timeout_s`` fails it, "no answer from the C&C box".
+   ``result_timeout_s`` fails it, "no answer from the C&C box"; once a minute, queued commands
+   past their ``expires_at`` become ``expired`` (the queries never offer them anyway).
+5. ``flush_results`` (the bridge loop, a power-down notice): answers the database refused
+   (locked too long) are kept in memory and written then; no database error ever reaches the
+   Level 2 reply path.
+
+Threads: the serial runner's thread calls 1–3, the bridge loop 4–5; the in-memory state (the
+command in flight, the quarantine) is under one lock, and whoever takes the command in flight
+first settles it (the conditional UPDATEs make a second writer a no-op).
 
 Why one command at a time, and the quarantine: results carry no command reference (§8.6), so
 they can only be matched in order. With several commands out, one lost result would shift every
