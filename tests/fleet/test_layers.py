@@ -66,6 +66,8 @@ PURE = [
     "vessels/missionfiles/geojson.py",
     "telemetry/errors.py",
     "sms/gsm7.py",
+    "sms/language.py",
+    "sms/errors.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",
     "sms/level2/bodies.py",
