@@ -175,7 +175,7 @@ def table_refusal(table: InnerCommandTable, kind: str, params: Mapping[str, Any]
     if not spec.usable:
         return NOT_ENABLED
     try:
-        table.encode(kind, params)
+        table.check(kind, params)
     except CommandRefused as exc:
         return exc.reason
     return None

@@ -22,6 +22,7 @@ from django.utils import timezone
 
 from commands import catalog
 from commands.errors import CatalogError, CommandError
+from commands.lifecycle import Status
 from commands.models import Command, Source
 from commands.services import command_enqueue
 from sms import language, selectors
@@ -316,16 +317,15 @@ def _carry_out(
 
 
 def _say_superseded(answers: list[Answer], queued: list[tuple[int, Command]]) -> None:
-    """Two navigation orders in one SMS: the later one replaced the earlier; say so."""
-    if sum(1 for _, c in queued if catalog.KINDS[c.kind].navigation) < 2:
-        return
-    statuses = dict(
-        Command.objects.filter(pk__in=[c.pk for _, c in queued]).values_list("pk", "status")
-    )
-    for index, command in queued:
-        command.status = statuses[command.pk]
-        if command.status != "queued":
-            answers[index] = Answer(answers[index].echo, command.status.upper())
+    """Two navigation orders in one SMS: the later one replaced the earlier; say so.
+
+    Known without reading them back: this SMS's commands are not yet committed, so nothing
+    but a later navigation order of the same SMS can have moved them (command_enqueue).
+    """
+    navigation = [(i, c) for i, c in queued if catalog.KINDS[c.kind].navigation]
+    for index, command in navigation[:-1]:
+        command.status = Status.SUPERSEDED
+        answers[index] = Answer(answers[index].echo, command.status.upper())
 
 
 def _values(command: Command) -> str:

@@ -177,6 +177,26 @@ class InnerCommandTable:
         3. The command value is chosen (fixed, by a choice, or by the sign of a parameter).
         4. Every parameter is placed into the 5 parameter bytes or lat/lon (§11.1).
         """
+        key, spec, values, value, params, lat, lon = self._encode(word, args)
+        packet = CommandPacket(
+            value,
+            bytes(params),
+            lat,
+            lon,
+            self.settings.wgms_id,
+            self.settings.inner_size_includes_crc,
+            self.settings.inner_crc,
+        )
+        return InnerCommand(key, values, packet, spec.status == PROVISIONAL)
+
+    def check(self, word: str, args: Sequence[Any] | Mapping[str, Any] = ()) -> None:
+        """Raise CommandRefused exactly when :meth:`encode` would, building no packet (the
+        SMS parser asks this of every command it reads)."""
+        self._encode(word, args)
+
+    def _encode(
+        self, word: str, args: Sequence[Any] | Mapping[str, Any]
+    ) -> tuple[str, CommandSpec, dict[str, Any], int, bytearray, int, int]:
         key = word.lower().lstrip("#")
         spec = self.commands.get(key)
         if spec is None:
@@ -199,16 +219,7 @@ class InnerCommandTable:
                 lon = degrees_to_l2(values[p.name], limit=_limit(p))
         for f in spec.fields:
             _place(spec, f, values[f.source], params)
-        packet = CommandPacket(
-            value,
-            bytes(params),
-            lat,
-            lon,
-            self.settings.wgms_id,
-            self.settings.inner_size_includes_crc,
-            self.settings.inner_crc,
-        )
-        return InnerCommand(key, values, packet, spec.status == PROVISIONAL)
+        return key, spec, values, value, params, lat, lon
 
 
 def _load_entry(word: str, entry: Mapping[str, Any]) -> CommandSpec:
@@ -373,7 +384,8 @@ def _value_known(spec: CommandSpec) -> bool:
 def _bind(spec: CommandSpec, args: Sequence[Any] | Mapping[str, Any]) -> dict[str, Any]:
     """Match arguments to parameters, converting text and checking ranges."""
     word = spec.word
-    if isinstance(args, Mapping):
+    # dict first: the ABC check alone costs as much as binding a parameter.
+    if isinstance(args, dict) or isinstance(args, Mapping):
         extra = set(args) - {p.name for p in spec.params}
         if extra:
             raise CommandRefused(word, f"unexpected parameters {sorted(extra)}")
