@@ -175,7 +175,7 @@ def table_refusal(table: InnerCommandTable, kind: str, params: Mapping[str, Any]
     if not spec.usable:
         return NOT_ENABLED
     try:
-        table.check(kind, params)
+        table.check_valid(kind, params)
     except CommandRefused as exc:
         return exc.reason
     return None
