@@ -409,7 +409,8 @@ def validate(kind: str, params: Any, *, vessel_kind: str | None = None) -> Valid
         )
     if params is None:
         params = {}
-    if not isinstance(params, Mapping):
+    # dict first: the Mapping ABC check alone costs as much as cleaning a parameter.
+    if not isinstance(params, dict) and not isinstance(params, Mapping):
         raise CatalogError("params must be an object", field="params")
     clean = _clean_params(spec.params, params, spec.param_names)
     if spec.name == "mission":
@@ -445,7 +446,7 @@ def _mission_fits(params: Mapping[str, Any]) -> None:
 
 def split_text(text: str) -> tuple[str, list[str]]:
     """One text command's word (upper case, without ``#``) and its values, split on spaces."""
-    tokens = text.strip().split()
+    tokens = text.split()  # split() drops the surrounding whitespace strip() would
     if not tokens or not tokens[0].startswith("#"):
         raise CatalogError("a command starts with # (for example #FHEAD 230)")
     return tokens[0][1:].upper(), tokens[1:]
