@@ -91,6 +91,9 @@ class Param:
             )
 
     def _clean_float(self, value: Any) -> float:
+        if type(value) is float and math.isfinite(value):  # the usual case, checked cheaply
+            self._range(value)
+            return value
         if not _is_number(value) or not _is_finite(value):
             raise CatalogError(f"{self.name} must be a number", field=self.name)
         number = float(value)
@@ -98,6 +101,9 @@ class Param:
         return number
 
     def _clean_int(self, value: Any) -> int:
+        if type(value) is int:  # the usual case (bool is not exactly int), checked cheaply
+            self._range(value)
+            return value
         if isinstance(value, float) and value.is_integer():
             value = int(value)
         if not isinstance(value, int) or isinstance(value, bool):
@@ -222,12 +228,13 @@ def _clean_params(
         )
     clean: dict[str, Any] = {}
     for spec in specs:
-        if spec.name not in params or params[spec.name] is None:
+        value = params.get(spec.name)  # absent or None alike
+        if value is None:
             if spec.required:
                 raise CatalogError(f"{spec.name} is required ({spec.help})", field=spec.name)
             clean[spec.name] = spec.default
             continue
-        clean[spec.name] = spec.clean(params[spec.name])
+        clean[spec.name] = spec.clean(value)
     return clean
 
 
