@@ -1,0 +1,108 @@
+"""The whole bridge through real serial plumbing: the modem simulator and the C&C simulator on
+pseudo-terminals, the bridge's own threads in between (issue 11, Tests: end to end)."""
+
+from __future__ import annotations
+
+import pytest
+
+from commands.lifecycle import Status
+from commands.models import Command
+from sms.models import Direction, Outcome, SendStatus, SmsMessage
+from vessels.models import Vessel
+
+from .rig import CONTROL, QUERY, STRANGER, authorise, running_bridge, wait_for
+
+pytestmark = [pytest.mark.slow, pytest.mark.django_db(transaction=True)]
+
+
+def queued_commands(glider: Vessel, count: int = 1) -> bool:
+    return Command.objects.filter(vessel=glider).count() >= count
+
+
+def test_fhead_230_by_sms_reaches_the_cc_and_the_phone_gets_ok(glider: Vessel) -> None:
+    authorise(glider)
+    with running_bridge(glider) as rig:
+        rig.modem.inject(CONTROL, "#FHEAD 230")
+        assert wait_for(lambda: queued_commands(glider))
+        sim = rig.cc()
+        sim.poll_once()
+        (packet,) = sim.stats.commands
+        assert packet.value == 0x0008 and int.from_bytes(packet.params[3:5], "little") == 230
+        assert wait_for(lambda: rig.modem.sent)
+        assert rig.texts() == [(CONTROL, "#FHEAD 230 OK")]
+        assert rig.modem.store == {}  # deleted once stored
+    command = Command.objects.get(vessel=glider)
+    assert command.status == Status.DONE
+    incoming = SmsMessage.objects.get(direction=Direction.IN)
+    reply = SmsMessage.objects.get(direction=Direction.OUT)
+    assert (reply.status, reply.reply_to_id) == (SendStatus.SENT, incoming.pk)
+    assert list(incoming.commands.all()) == list(reply.commands.all()) == [command]
+
+
+def test_a_nak_is_told_to_the_sender_with_its_meaning(glider: Vessel) -> None:
+    authorise(glider)
+    with running_bridge(glider) as rig:
+        rig.modem.inject(CONTROL, "#FHEAD 230")
+        assert wait_for(lambda: queued_commands(glider))
+        rig.cc(ack_policy=lambda _i, _p: 2).poll_once()
+        assert wait_for(lambda: rig.modem.sent)
+        assert rig.texts() == [(CONTROL, "#FHEAD 230 FAILED invalid data")]
+    assert Command.objects.get(vessel=glider).status == Status.FAILED
+
+
+def test_queries_are_answered_at_once_and_status_gives_the_position(glider: Vessel) -> None:
+    authorise(glider)
+    with running_bridge(glider) as rig:
+        sim = rig.cc()
+        sim.poll_once()
+        sim.poll_once()  # every other status request carries the position (level2.md §8.3)
+        assert wait_for(lambda: rig.bridge.fixes.pending)
+        rig.bridge.fixes.flush()
+        rig.modem.inject(QUERY, "#FHEAD")
+        rig.modem.inject(QUERY, "#STATUS")
+        assert wait_for(lambda: len(rig.modem.sent) == 2)
+        texts = dict(rig.texts()[:1]), rig.texts()[1][1]
+    assert texts[0] == {QUERY: "#FHEAD unknown"}
+    assert texts[1].startswith("#STATUS pos 36.8030 -121.7880")
+
+
+def test_a_stranger_is_logged_and_never_answered(glider: Vessel) -> None:
+    authorise(glider)
+    with running_bridge(glider) as rig:
+        rig.modem.inject(STRANGER, "#FHEAD 230")
+        rig.modem.inject(CONTROL, "#FHEAD")
+        assert wait_for(lambda: rig.modem.sent)  # the second SMS is answered: the first was read
+        assert rig.texts() == [(CONTROL, "#FHEAD unknown")]
+    stranger = SmsMessage.objects.get(number_e164=STRANGER)
+    assert stranger.outcome == Outcome.STRANGER
+    assert not Command.objects.filter(vessel=glider).exists()
+
+
+def test_three_commands_in_one_sms_get_one_reply_once_all_have_ended(glider: Vessel) -> None:
+    authorise(glider)
+    with running_bridge(glider, reply_window_s=30.0) as rig:
+        rig.modem.inject(CONTROL, "#LIGHT ON; #FHEAD 230; #LIGHT OFF")
+        assert wait_for(lambda: queued_commands(glider, 3))
+        sim = rig.cc(ack_policy=lambda index, _p: 2 if index == 1 else 0)
+        for _ in range(3):  # one command in flight at a time: one per poll
+            sim.poll_once()
+            assert wait_for(lambda: rig.bridge.source.in_flight is None)
+        assert len(sim.stats.commands) == 3
+        assert wait_for(lambda: rig.modem.sent)
+        assert rig.texts() == [
+            (CONTROL, "#LIGHT ON OK; #FHEAD 230 FAILED invalid data; #LIGHT OFF OK")
+        ]
+
+
+def test_a_result_that_never_comes_is_queued_then_told_when_it_fails(glider: Vessel) -> None:
+    authorise(glider)
+    with running_bridge(glider, reply_window_s=0.5, result_timeout_s=1.5) as rig:
+        rig.modem.inject(CONTROL, "#FHEAD 230")
+        assert wait_for(lambda: queued_commands(glider))
+        rig.cc(send_results=False).poll_once()
+        assert wait_for(lambda: len(rig.modem.sent) == 2)
+        assert rig.texts() == [
+            (CONTROL, "#FHEAD 230 QUEUED"),
+            (CONTROL, "#FHEAD 230 FAILED no answer from the C&C box"),
+        ]
+    assert SmsMessage.objects.filter(direction=Direction.OUT, status=SendStatus.SENT).count() == 2
