@@ -19,4 +19,5 @@ bench:           ## server, Level 2, SMS, bridge and edge client benchmarks, eac
 	.venv/bin/python -m bench.level2
 	.venv/bin/python -m bench.sms
 	.venv/bin/python -m bench.bridge
+	.venv/bin/python -m bench.wg_bridge
 	.venv/bin/python -m bench.edge

@@ -31,12 +31,19 @@ import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
+import serial
 from django.db import DatabaseError, close_old_connections, connection
 
 from edge_client import systemd
-from sms.level2.payload import PayloadConfig
-from sms.level2.runner import PayloadRunner
+from sms.level2.payload import (
+    CommandCompleted,
+    Notification,
+    PayloadConfig,
+    ResultWithoutCommand,
+)
+from sms.level2.runner import BAUDRATE, PayloadRunner
 from sms.modem import Modem, ModemConfig
 from vessels.models import Vessel
 
@@ -47,7 +54,7 @@ from .machine import BridgeMachine
 from .power import parse_command
 from .records import RecordTable
 from .sensors import LatestReadings, SensorSubscriber
-from .sms_link import SmsLink
+from .sms_link import POLL_S, SmsLink
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +66,12 @@ TICK_S = 1.0
 RECONNECT_DELAY_S = 1.0
 JOIN_S = 10.0
 ENV_PREFIX = "WG_"
+
+
+def _modem_port(url: str, baudrate: int = BAUDRATE) -> Any:
+    """The modem's port with a short read timeout: the modem thread's poll is its granularity
+    (sms_link.POLL_S), so that a reply released by the C&C's ACK starts within milliseconds."""
+    return serial.serial_for_url(url, baudrate=baudrate, timeout=POLL_S)
 
 
 class PeriodicTask:
@@ -188,10 +201,13 @@ class Bridge:
             config.level2_port,
             self.machine,
             reconnect_delay_s=config.reconnect_delay_s,
-            on_notification=self.dispatch,
+            on_notification=self._notified,
             trace=level2_trace,
         )
-        self.modem = Modem(ModemConfig(config.modem_port, **dict(modem_config or {})))  # type: ignore[arg-type]
+        self.modem = Modem(
+            ModemConfig(config.modem_port, **dict(modem_config or {})),  # type: ignore[arg-type]
+            port_factory=_modem_port,
+        )
         self.sms = SmsLink(
             vessel=self.vessel,
             modem=self.modem,
@@ -245,7 +261,7 @@ class Bridge:
         """One tick of the main loop; True if it got through without a database error."""
         self.ticks += 1
         steps: list[tuple[str, Callable[[], object]]] = [
-            ("command timeouts", self.source.expire_overdue),
+            ("command timeouts", self._expire_overdue),
             ("fixes", self.fixes.flush_if_due),
             ("command results", self.source.flush_results),
         ]
@@ -280,6 +296,17 @@ class Bridge:
             except DatabaseError as exc:
                 log.error("could not write %s at stop: %s", name, exc)
         connection.close()
+
+    def _notified(self, note: Notification) -> None:
+        """The runner's callback (its thread): route the note, and when it ended a command,
+        nudge the modem thread so the held reply goes out now, not at its next look."""
+        self.dispatch(note)
+        if isinstance(note, CommandCompleted | ResultWithoutCommand):
+            self.sms.nudge()
+
+    def _expire_overdue(self) -> None:
+        if self.source.expire_overdue():
+            self.sms.nudge()
 
     # -- threads --------------------------------------------------------------------------------
 

@@ -46,8 +46,12 @@ from vessels.models import Vessel
 
 log = logging.getLogger(__name__)
 
-POLL_S = 0.05  # one wait for +CMTI; bounds how late a released reply starts (issue 11: ≤100 ms)
-HOUSEKEEPING_S = 1.0  # close_old_connections() this often, not on every poll
+# One wait for +CMTI, and the port's read timeout: bounds how late a nudged reply starts (issue
+# 11: the C&C's ACK → the reply handed to the modem ≤ 100 ms). An idle pass costs one select().
+POLL_S = 0.01
+# Without a nudge, held and pending replies are looked at this often (retry times, windows),
+# and close_old_connections() runs.
+HOUSEKEEPING_S = 1.0
 RETRY_BASE_S = 5.0  # first wait after a temporary send failure; doubles
 RETRY_MAX_S = 300.0
 MAX_ATTEMPTS = 8  # ~20 min of doubling waits: a reply older than that has lost its point
@@ -88,6 +92,8 @@ class SmsLink:
         self._retry_at: dict[int, float] = {}
         self._paused_until = 0.0
         self._housekept = 0.0
+        self._looked = 0.0
+        self._nudged = threading.Event()
         self.received = 0
         self.sent = 0
         self.failed = 0
@@ -116,6 +122,10 @@ class SmsLink:
             return True
         return False
 
+    def nudge(self) -> None:
+        """Something may have changed the replies (a command ended): look at once. Any thread."""
+        self._nudged.set()
+
     # -- the loop -------------------------------------------------------------------------------
 
     def run(self, stop: threading.Event) -> None:
@@ -133,10 +143,13 @@ class SmsLink:
             stop.wait(min(self.poll_s * 10, self._paused_until - self.clock()))
             return
         try:
-            self.do_one_receive()
-            self.do_one_replies_due()
-            while not stop.is_set() and self.do_one_send():
-                pass
+            received = self.do_one_receive()
+            if received or self._nudged.is_set() or self.clock() - self._looked >= HOUSEKEEPING_S:
+                self._nudged.clear()
+                self._looked = self.clock()
+                self.do_one_replies_due()
+                while not stop.is_set() and self.do_one_send():
+                    pass
         except ModemError as exc:
             self.errors += 1
             if exc.permanent:
