@@ -67,6 +67,7 @@ PURE = [
     "telemetry/errors.py",
     "sms/gsm7.py",
     "sms/language.py",
+    "sms/replies.py",
     "sms/errors.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",
