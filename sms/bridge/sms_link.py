@@ -55,7 +55,7 @@ HOUSEKEEPING_S = 1.0
 RETRY_BASE_S = 5.0  # first wait after a temporary send failure; doubles
 RETRY_MAX_S = 300.0
 MAX_ATTEMPTS = 8  # ~20 min of doubling waits: a reply older than that has lost its point
-PERMANENT_PAUSE_S = 60.0  # the modem refused for good (SIM PIN): try again this much later
+PERMANENT_PAUSE_S = 10.0  # the modem refused for good (SIM PIN): look again this much later
 DATABASE_PAUSE_S = 1.0
 
 
@@ -161,6 +161,11 @@ class SmsLink:
             self.errors += 1
             log.warning("database: %s; reconnecting", exc)
             connection.close()
+            self._paused_until = self.clock() + DATABASE_PAUSE_S
+        except Exception:  # noqa: BLE001 - the modem thread must outlive any one failure
+            self.errors += 1
+            log.exception("modem link failed; reopening the modem")
+            self.modem.close()
             self._paused_until = self.clock() + DATABASE_PAUSE_S
         if self.clock() - self._housekept >= HOUSEKEEPING_S:
             self._housekept = self.clock()

@@ -61,10 +61,10 @@ class Rig:
 
 
 @contextmanager
-def running_bridge(glider: Vessel, **config: object) -> Iterator[Rig]:
+def running_bridge(glider: Vessel, modem_where: str = "pty", **config: object) -> Iterator[Rig]:
     cc_port = PtyPort(timeout=0.01)
     modem = SimulatedModem()
-    server = ModemServer(modem, "pty").start()
+    server = ModemServer(modem, modem_where).start()
     settings = {
         "vessel": glider.slug,
         "level2_port": cc_port.name,
