@@ -210,6 +210,8 @@ class MissionItemInline(admin.TabularInline):
 
 @admin.register(Mission)
 class MissionAdmin(admin.ModelAdmin):
+    # The planner map over the item rows (template + vessels/static/vessels/planner.js).
+    change_form_template = "admin/vessels/mission/change_form.html"
     list_display = ["name", "vessel", "item_count", "loop", "updated_at"]
     list_filter = ["vessel"]
     inlines = [MissionItemInline]
