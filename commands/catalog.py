@@ -388,6 +388,7 @@ def validate(kind: str, params: Any, *, vessel_kind: str | None = None) -> Valid
     clean = _clean_params(spec.params, params)
     if spec.name == "mission":
         clean = _mission_end(clean)
+        _mission_fits(clean)
     return ValidCommand(kind=spec.name, params=clean, navigation=spec.navigation)
 
 
@@ -403,6 +404,17 @@ def _mission_end(params: dict[str, Any]) -> dict[str, Any]:
     elif params["loop"] and end != "loop":
         raise CatalogError(f"loop is true but end is {end!r}", field="end")
     return {**params, "end": end, "loop": end == "loop"}
+
+
+def _mission_fits(params: Mapping[str, Any]) -> None:
+    """The autopilot must be able to store the mission it is sent (see the count above)."""
+    count = mission_mavlink_item_count(params["items"], params["end"])
+    if count > MISSION_MAX_MAVLINK_ITEMS:
+        raise CatalogError(
+            f"the mission needs {count} autopilot items (home, waypoints, speed changes and "
+            f"its end); the autopilot stores at most {MISSION_MAX_MAVLINK_ITEMS}",
+            field="items",
+        )
 
 
 def parse_text(text: str, *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:

@@ -12,7 +12,7 @@ from django.db import connection, transaction
 from django.utils import timezone
 
 from commands import catalog
-from commands.errors import CommandError, CommandNotFound, TransitionError
+from commands.errors import CatalogError, CommandError, CommandNotFound, TransitionError
 from commands.lifecycle import (
     ACK_STATUSES,
     FINAL,
@@ -22,7 +22,8 @@ from commands.lifecycle import (
     check_transition,
 )
 from commands.models import Command, CommandEvent, Source
-from vessels.models import Vessel
+from vessels import missions
+from vessels.models import Mission, Vessel
 from vessels.services import vessel_bump_commands_version
 
 # Which timestamp field each status sets.
@@ -95,6 +96,10 @@ def command_validate(
     """
     now = now or timezone.now()
     valid = catalog.validate(kind, params, vessel_kind=vessel.kind)
+    if valid.kind == "mission":
+        found = _mission_route_problems(valid.params)
+        if found:
+            raise CatalogError("; ".join(found), field="items")
     if not vessel.active:
         raise CommandError(f"vessel {vessel.slug} is not active")
     if expires_at is None:
@@ -102,6 +107,50 @@ def command_validate(
     elif expires_at <= now:
         raise CommandError("expires_at must be in the future")
     return valid, expires_at
+
+
+def _mission_route_problems(params: dict[str, Any]) -> list[str]:
+    # The catalog is pure and reads no settings: the configurable leg limit enters here.
+    return missions.problems(
+        params["items"], max_leg_m=settings.MISSION_MAX_LEG_M, end=params["end"]
+    )
+
+
+def mission_problems(*, mission: Mission, vessel: Vessel | None = None) -> list[str]:
+    """Every reason sending ``mission`` (to ``vessel``, default its own) would be refused by
+    the catalog or the mission checks, [] when none. Writes nothing: the admin shows these
+    when a mission is saved."""
+    vessel = vessel or mission.vessel
+    try:
+        valid = catalog.validate(
+            "mission", mission.as_params(), vessel_kind=vessel.kind if vessel else None
+        )
+    except CatalogError as exc:
+        return [exc.message]
+    return _mission_route_problems(valid.params)
+
+
+def mission_send(
+    *,
+    mission: Mission,
+    vessel: Vessel | None = None,
+    source: str = Source.API,
+    created_by: str = "",
+    now: dt.datetime | None = None,
+) -> Command:
+    """Queue ``mission`` as a `mission` command for ``vessel`` (default: the mission's own).
+    Checked like every command (catalog, mission checks); raises CommandError."""
+    vessel = vessel or mission.vessel
+    if vessel is None:
+        raise CommandError("a template has no vessel; copy it to one.", field="vessel")
+    return command_enqueue(
+        vessel=vessel,
+        kind="mission",
+        params=mission.as_params(),
+        source=source,
+        created_by=created_by,
+        now=now,
+    )
 
 
 @transaction.atomic

@@ -342,6 +342,8 @@ FIX_MAX_FUTURE_S = env_int("FIX_MAX_FUTURE_S", 300)
 # Writing last_used_at on every poll would serialise polls on SQLite's write lock.
 KEY_TOUCH_INTERVAL_S = env_int("KEY_TOUCH_INTERVAL_S", 60)
 COMMAND_DEFAULT_TTL_S = env_int("COMMAND_DEFAULT_TTL_S", 24 * 3600)
+# Mission checks (vessels.missions): a leg longer than this is refused before sending [50 km].
+MISSION_MAX_LEG_M = env_int("MISSION_MAX_LEG_M", 50_000)
 DATA_UPLOAD_MAX_MEMORY_SIZE = env_int("DATA_UPLOAD_MAX_MEMORY_SIZE", 10 * 1024 * 1024)
 
 # The cache holds the API throttles' and the failed logins' counters. `locmem` counts in each

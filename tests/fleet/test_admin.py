@@ -28,7 +28,7 @@ def test_the_vessel_page_shows_keys_recent_fixes_and_commands(
 def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(
     admin_ui: Client, vessel_a: Vessel, glider: Vessel
 ) -> None:
-    ready = mission_save(mission=Mission(name="Ready", vessel=vessel_a, loop=True))
+    ready = mission_save(mission=Mission(name="Ready", vessel=vessel_a, end="loop"))
     mission_save_items(mission=ready, items=[{"lat": -31.9, "lon": 115.8, "radius_m": 5}])
     template = mission_save(mission=Mission(name="Template"))
     for_glider = mission_save(mission=Mission(name="Glider run", vessel=glider))

@@ -57,17 +57,20 @@ def test_it_creates_a_vessel_through_the_form(admin_ui: Client) -> None:
             "kind": "mavlink",
             "active": "on",
             "telemetry_period_s": 30,
+            "cruise_speed_mps": 2.0,
             "notes": "",
         },
     )
     assert response.status_code == 302
-    assert Vessel.objects.get(slug="third").telemetry_period_s == 30
+    third = Vessel.objects.get(slug="third")
+    assert (third.telemetry_period_s, third.cruise_speed_mps) == (30, 2.0)
 
 
 def test_the_mission_admin_saves_items_in_order(admin_ui: Client, vessel_a: Vessel) -> None:
     data = {
         "name": "Survey",
         "vessel": vessel_a.pk,
+        "end": "stop",
         "notes": "",
         "items-TOTAL_FORMS": 2,
         "items-INITIAL_FORMS": 0,
@@ -94,6 +97,7 @@ def test_a_vessels_slug_cannot_be_changed_once_created(admin_ui: Client, vessel_
             "kind": "mavlink",
             "active": "on",
             "telemetry_period_s": 10,
+            "cruise_speed_mps": 1.5,
             "notes": "",
             "keys-TOTAL_FORMS": 0,
             "keys-INITIAL_FORMS": 0,
