@@ -6,6 +6,8 @@ import os
 import shutil
 import tempfile
 from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -47,3 +49,22 @@ def browser() -> Iterator[object]:
     finally:
         driver.quit()
         shutil.rmtree(profile, ignore_errors=True)
+
+
+# Screenshots of every step are test artifacts: what an operator sees. SHORESIDE_SCREENSHOTS
+# chooses the folder (CI uploads it); the run's summary prints where they went.
+SCREENSHOTS = Path(
+    os.environ.get("SHORESIDE_SCREENSHOTS") or Path(tempfile.gettempdir()) / "shoreside-screenshots"
+)
+
+
+def pytest_terminal_summary(terminalreporter: Any) -> None:
+    if SCREENSHOTS.is_dir() and any(SCREENSHOTS.glob("*.png")):
+        terminalreporter.write_line(f"browser screenshots: {SCREENSHOTS}")
+
+
+@pytest.fixture(autouse=True)
+def _no_map_tiles(settings: Any) -> None:
+    # No internet here (nor at sea): the maps draw on a plain background, which is what the
+    # tests check; a test that wants a tile URL sets its own.
+    settings.MAP_TILES_URL = ""

@@ -27,7 +27,10 @@
     this.pending = null;
     this.message = null;
     this.commands = null;
-    this.overlay = L.layerGroup().addTo(map);
+    this.polls = 0; // answered polls, and how many of them were 304s (the browser tests read them)
+    this.notModified = 0;
+    this.overlay = L.layerGroup().addTo(map); // the point being picked
+    this.targets = L.layerGroup().addTo(map); // where the open move_to commands go
     this.panel = document.getElementById("fleet-panel");
     this.panel.innerHTML = "";
     this.head = this.panel.appendChild(el("div", { class: "panel-head" }));
@@ -62,7 +65,8 @@
     var headers = this.etag ? { "If-None-Match": this.etag } : {};
     S.getJSON(this.cfg.fleetUrl, headers)
       .then(function (r) {
-        if (r.status === 304) { return null; }
+        self.polls += 1;
+        if (r.status === 304) { self.notModified += 1; return null; }
         if (!r.ok) { throw new Error("the fleet data answered HTTP " + r.status); }
         self.etag = r.headers.get("ETag");
         return r.json();
@@ -160,7 +164,10 @@
     this.pick = null;
     this.message = null;
     this.commands = null;
+    this.polls = 0; // answered polls, and how many of them were 304s (the browser tests read them)
+    this.notModified = 0;
     this.overlay.clearLayers();
+    this.targets.clearLayers();
     L.DomUtil.removeClass(this.map.getContainer(), "picking");
     this.tick();
     this.renderActions();
@@ -284,12 +291,13 @@
       box.appendChild(pickBox);
     }
     if (this.pending) {
-      box.appendChild(el("div", { class: "confirm-box" }, [
+      var confirmBox = box.appendChild(el("div", { class: "confirm-box" }, [
         el("p", { class: "confirm-text", text: this.pending.text }),
         el("button", { type: "button", class: "button default confirm-queue", text: "Queue", onclick: function () { self.send(); } }),
         " ",
         el("button", { type: "button", class: "button confirm-cancel", text: "Cancel", onclick: function () { self.cancelPick(); } }),
       ]));
+      confirmBox.scrollIntoView({ block: "nearest" });
     }
     if (this.message) {
       box.appendChild(el("p", { class: "action-message " + this.message.kind, text: this.message.text }));
@@ -376,6 +384,7 @@
           self.message = { kind: "success", text: "Queued: " + pending.label + " (" + res.body.uid.slice(0, 8) + "…)" };
           self.pick = null;
           self.pending = null;
+          self.overlay.clearLayers();
           L.DomUtil.removeClass(self.map.getContainer(), "picking");
           self.pollCommands();
         } else {
@@ -425,9 +434,25 @@
       });
   };
 
+  // The open move_to commands' targets, with a dashed line from where the vessel is now.
+  FleetMap.prototype.drawTargets = function () {
+    var self = this, v = this.vessels[this.selected], fix = v && v.last_fix;
+    this.targets.clearLayers();
+    (this.commands || []).forEach(function (c) {
+      if (c.kind !== "move_to" || OPEN.indexOf(c.status) < 0) { return; }
+      var target = [c.params.lat, c.params.lon];
+      if (fix) {
+        L.polyline([[fix.lat, fix.lon], target], { color: "#00838f", weight: 2, dashArray: "4 6", interactive: false }).addTo(self.targets);
+      }
+      L.circleMarker(target, { radius: 7, color: "#00838f", weight: 2, fillOpacity: 0.2, interactive: false })
+        .bindTooltip("move_to: " + c.status).addTo(self.targets);
+    });
+  };
+
   FleetMap.prototype.renderCommands = function () {
     var self = this, box = this.commandsBox;
     box.innerHTML = "";
+    this.drawTargets();
     if (!this.selected || !this.cfg.canViewCommands) { return; }
     box.appendChild(el("h3", { text: "Recent commands" }));
     if (this.commands === null) { box.appendChild(el("p", { class: "muted", text: "loading…" })); return; }

@@ -9,6 +9,7 @@
   var EARTH_RADIUS_M = 6371000;
   var GRID_STEPS = [30, 10, 5, 2, 1, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005];
   var GRID_MAX_LINES = 8;
+  var LABEL_CLEAR_PX = 18;
 
   function rad(d) { return (d * Math.PI) / 180; }
 
@@ -73,7 +74,8 @@
   };
   S.fmtValue = function (v, unit) {
     if (v === null || v === undefined) { return "–"; }
-    var text = typeof v === "number" ? (Math.abs(v) >= 100 ? v.toFixed(1) : v.toFixed(2)) : String(v);
+    var text = String(v);
+    if (typeof v === "number" && !Number.isInteger(v)) { text = Math.abs(v) >= 100 ? v.toFixed(1) : v.toFixed(2); }
     return unit ? text + " " + unit : text;
   };
 
@@ -107,20 +109,31 @@
       var digits = Math.max(0, Math.ceil(-Math.log10(step)));
       var style = { color: "#5b7389", weight: 1, opacity: 0.45, interactive: false, dashArray: "2 4" };
       var lat0 = Math.ceil(south / step) * step, lon0 = Math.ceil(west / step) * step;
-      var labelLon = west + (east - west) * 0.004, labelLat = south + (north - south) * 0.012;
+      // Latitudes on the right edge, longitudes along the top: the zoom buttons sit top left,
+      // the scale bar and attribution along the bottom.
+      var labelLon = east - (east - west) * 0.004, labelLat = north - (north - south) * 0.004;
+      var size = map.getSize();
       for (var lat = lat0; lat <= north; lat += step) {
         this.addLayer(L.polyline([[lat, west], [lat, east]], style));
-        this.addLayer(this._label([lat, labelLon], lat.toFixed(digits) + "°", "lat"));
+        var y = map.latLngToContainerPoint([lat, east]).y;
+        // Not under the longitude labels along the top, nor the scale bar along the bottom.
+        if (y > LABEL_CLEAR_PX && y < size.y - 2 * LABEL_CLEAR_PX) {
+          this.addLayer(this._label([lat, labelLon], lat.toFixed(digits) + "°", "lat"));
+        }
       }
       for (var lon = lon0; lon <= east; lon += step) {
         this.addLayer(L.polyline([[south, lon], [north, lon]], style));
-        this.addLayer(this._label([labelLat, lon], lon.toFixed(digits) + "°", "lon"));
+        var x = map.latLngToContainerPoint([north, lon]).x;
+        // Not under the zoom buttons (left), nor the latitude labels (right).
+        if (x > 3 * LABEL_CLEAR_PX && x < size.x - 4 * LABEL_CLEAR_PX) {
+          this.addLayer(this._label([labelLat, lon], lon.toFixed(digits) + "°", "lon"));
+        }
       }
     },
     _label: function (latlng, text, axis) {
       return L.marker(latlng, {
         interactive: false, keyboard: false,
-        icon: L.divIcon({ className: "graticule-label graticule-" + axis, html: text, iconSize: null }),
+        icon: L.divIcon({ className: "graticule-label graticule-" + axis, html: "<span>" + text + "</span>", iconSize: [0, 0] }),
       });
     },
   });
@@ -129,8 +142,9 @@
     options: { position: "bottomright" },
     onAdd: function (map) {
       var box = L.DomUtil.create("div", "leaflet-control cursor-position");
-      box.textContent = "move the pointer over the map";
+      box.hidden = true; // until the pointer is over the map
       map.on("mousemove", function (e) {
+        box.hidden = false;
         box.textContent = S.fmtLatLon(e.latlng.lat, e.latlng.lng) + "  ·  " + S.fmtDDM(e.latlng.lat, e.latlng.lng);
       });
       return box;

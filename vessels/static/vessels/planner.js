@@ -9,6 +9,8 @@
   var el = S.el;
   var PREFIX = "items";
   var COORD_DIGITS = 6; // ~0.1 m: finer than any GPS fix
+  // A template mission (no vessel) is timed at vessels/missions.py's DEFAULT_CRUISE_SPEED_MPS.
+  var DEFAULT_CRUISE_SPEED_MPS = 1.5;
 
   function Planner(map) {
     this.map = map;
@@ -25,6 +27,8 @@
       document.addEventListener("change", rerender);
       document.addEventListener("formset:added", rerender);
       document.addEventListener("formset:removed", rerender);
+      var vessel = input("id_vessel");
+      if (vessel) { vessel.addEventListener("change", function () { if (!self.items().length) { self.fit(); } }); }
     }
     this.render();
     this.fit();
@@ -174,24 +178,21 @@
     this.pendingFrame = requestAnimationFrame(function () { self.pendingFrame = null; self.render(); });
   };
 
+  // Legs as vessels/missions.py counts them: an item's speed is the speed of the leg *to* it
+  // and of every leg after (DO_CHANGE_SPEED runs as the boat sets off toward that waypoint).
   Planner.prototype.legs = function (items, cruise) {
-    var speed = cruise, legs = [];
-    items.forEach(function (item, i) {
-      if (i > 0) {
-        var prev = items[i - 1];
-        var d = S.geo.distance(prev.lat, prev.lon, item.lat, item.lon);
-        legs.push({ distance: d, speed: speed, time: speed ? d / speed : null });
-      } else {
-        legs.push(null);
-      }
-      if (item.speed !== null) { speed = item.speed; } // from this item on
-    });
-    return { legs: legs, speed: speed };
+    var speed = (items[0] && items[0].speed) || cruise, legs = [null];
+    for (var n = 1; n < items.length; n++) {
+      speed = items[n].speed || speed;
+      var d = S.geo.distance(items[n - 1].lat, items[n - 1].lon, items[n].lat, items[n].lon);
+      legs.push({ distance: d, speed: speed, time: d / speed });
+    }
+    return { legs: legs, speed: speed, loopSpeed: (items[0] && items[0].speed) || speed };
   };
 
   Planner.prototype.render = function () {
     var self = this, items = this.items(), vessel = this.vessel(), end = this.end(), home = this.home();
-    var cruise = vessel && vessel.cruise;
+    var cruise = (vessel && vessel.cruise) || DEFAULT_CRUISE_SPEED_MPS;
     var plan = this.legs(items, cruise);
     this.layer.clearLayers();
     var path = items.map(function (i) { return [i.lat, i.lon]; });
@@ -204,7 +205,8 @@
       L.polyline([[closing[0].lat, closing[0].lon], [closing[1].lat, closing[1].lon]],
         { color: "#1565c0", weight: 2, dashArray: "6 6", interactive: false }).addTo(this.layer);
       var cd = S.geo.distance(closing[0].lat, closing[0].lon, closing[1].lat, closing[1].lon);
-      closeLeg = { distance: cd, time: plan.speed ? cd / plan.speed : null };
+      var closeSpeed = end === "loop" ? plan.loopSpeed : plan.speed;
+      closeLeg = { distance: cd, time: cd / closeSpeed };
     }
     if (home) {
       L.marker(home, { interactive: false, icon: L.divIcon({ className: "home-icon", html: "H", iconSize: [20, 20], iconAnchor: [10, 10] }) })
@@ -275,10 +277,10 @@
     else if (end !== "stop") { endText += end === "return_home" ? " (home position not set: the autopilot's own home)." : "."; }
     var withClose = totalD + (closeLeg ? closeLeg.distance : 0);
     var timeWithClose = totalT + (closeLeg && closeLeg.time ? closeLeg.time : 0) + holds;
-    var speedText = cruise ? "at a cruise speed of " + cruise + " m/s" : "set the vessel's cruise speed for times";
+    var speedText = "Times at a cruise speed of " + cruise + " m/s unless an item sets its own";
     box.appendChild(el("div", { class: "planner-totals" }, [
       el("p", { id: "planner-total", text: items.length + " waypoints · " + S.fmtDistance(withClose) +
-        (timeKnown && cruise ? " · " + S.fmtDuration(timeWithClose) + (end === "loop" ? " per lap" : "") : "") +
+        (timeKnown ? " · " + S.fmtDuration(timeWithClose) + (end === "loop" ? " per lap" : "") : "") +
         (holds ? " (holds " + S.fmtDuration(holds) + ")" : "") }),
       el("p", { class: "muted", text: speedText + ". " + endText }),
     ]));
