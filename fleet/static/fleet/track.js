@@ -229,7 +229,8 @@
     keys.forEach(function (key, i) {
       var ch = data.channels[key];
       var colour = COLOURS[i % COLOURS.length];
-      var unit = ch.unit || (self.cfg.channels[key] || {}).unit || "";
+      var known = self.cfg.channels[key];
+      var unit = known ? known.unit : ch.unit || "";
       var title = self.label(key, data) + (unit ? " (" + unit + ")" : "");
       var holder = el("div", { class: "plot", "data-key": key }, [el("p", { class: "plot-title", text: title })]);
       box.appendChild(holder);
@@ -237,17 +238,20 @@
         width: box.clientWidth || 800,
         height: PLOT_HEIGHT,
         tzDate: function (ts) { return uPlot.tzDate(new Date(ts * 1000), "Etc/UTC"); },
-        cursor: { sync: { key: "track" }, drag: { x: false, y: false } },
+        cursor: { sync: { key: "track" }, drag: { x: false, y: false }, y: false },
         legend: { show: true },
-        scales: { x: { time: true, range: [self.from.getTime() / 1000, self.to.getTime() / 1000] } },
+        scales: {
+          x: { time: true, range: [self.from.getTime() / 1000, self.to.getTime() / 1000] },
+          y: { range: yRange(known) },
+        },
         series: [
-          { label: "time (UTC)" },
+          { label: "time (UTC)", value: function (u, v) { return v === null || v === undefined ? "–" : S.fmtTime(v); } },
           { label: "min", stroke: colour + "66", width: 1, value: fmt(unit) },
           { label: "max", stroke: colour + "66", width: 1, value: fmt(unit) },
           { label: "mean", stroke: colour, width: 1.5, value: fmt(unit), spanGaps: false },
         ],
         bands: [{ series: [2, 1], fill: colour + "33" }],
-        axes: [{}, { label: unit, size: 60 }],
+        axes: [{ values: timeLabels, space: 70 }, { size: 55 }],
         hooks: {
           setCursor: [function (u) {
             var idx = u.cursor.idx;
@@ -260,9 +264,10 @@
     });
   };
 
+  // The page's SensorChannel labels first (the same as the fleet map's), then the series'.
   TrackPage.prototype.label = function (key, data) {
-    var ch = (data && data.channels[key]) || {};
-    return ch.label || (this.cfg.channels[key] || {}).label || key;
+    var known = this.cfg.channels[key], ch = (data && data.channels[key]) || {};
+    return (known && known.label) || ch.label || key;
   };
 
   // The moment clicked on the track, as a vertical line on every plot.
@@ -285,6 +290,27 @@
     var width = document.getElementById("plots").clientWidth;
     this.plots.forEach(function (u) { u.setSize({ width: width, height: PLOT_HEIGHT }); });
   };
+
+  // The channel's plot bounds from SensorChannel when it has them, widened to the data.
+  function yRange(channel) {
+    return function (u, dataMin, dataMax) {
+      var lo = channel && channel.min !== null && channel.min !== undefined ? Math.min(channel.min, dataMin) : dataMin;
+      var hi = channel && channel.max !== null && channel.max !== undefined ? Math.max(channel.max, dataMax) : dataMax;
+      if (lo === null || hi === null) { return [0, 1]; }
+      if (hi - lo < 1e-9) { var pad = Math.abs(hi) * 0.01 || 1; lo -= pad; hi += pad; }
+      return uPlot.rangeNum(lo, hi, 0.1, true);
+    };
+  }
+
+  // 24-hour UTC clock times, with the date under the first tick of each day.
+  function timeLabels(u, splits) {
+    var lastDay = null;
+    return splits.map(function (t) {
+      var iso = new Date(t * 1000).toISOString(), day = iso.slice(5, 10), label = iso.slice(11, 16);
+      if (day !== lastDay) { label += "\n" + day; lastDay = day; }
+      return label;
+    });
+  }
 
   function fmt(unit) {
     return function (u, v) { return v === null || v === undefined ? "–" : S.fmtValue(v, unit); };
