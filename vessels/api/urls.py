@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+from django.urls import path
 from rest_framework.routers import DefaultRouter
 
-from vessels.api.views import VesselViewSet
+from vessels.api.views import FleetView, VesselViewSet
 
 router = DefaultRouter(trailing_slash=True)
 router.include_root_view = False
 router.register("vessels", VesselViewSet, basename="vessel")
 
-urlpatterns = router.urls
+urlpatterns = [path("fleet/", FleetView.as_view(), name="fleet"), *router.urls]
