@@ -53,10 +53,19 @@ def test_an_operator_logs_in_and_queues_a_move_to(
 
 
 def test_the_admin_loads_no_asset_from_the_internet(
-    browser, live_server, operator_user: User
+    browser, live_server, admin_user: User, vessel_a: Vessel
 ) -> None:
-    log_in(browser, live_server, operator_user)
-    for path in ("/admin/", "/admin/commands/command/add/", "/api/v1/docs/"):
+    admin_user.set_password("pw-admin")
+    admin_user.save()
+    log_in(browser, live_server, admin_user)
+    pages = (
+        "/admin/",  # the fleet map
+        f"/fleet/vessels/{vessel_a.slug}/track/",
+        "/admin/vessels/mission/add/",  # the planner
+        "/admin/commands/command/add/",
+        "/api/v1/docs/",
+    )
+    for path in pages:
         browser.get(live_server.url + path)
         urls = browser.execute_script(
             "return performance.getEntriesByType('resource').map(e => e.name)"

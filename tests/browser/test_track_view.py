@@ -16,6 +16,7 @@ from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from tests.browser.support import js, log_in, shot, wait_for
 from vessels.models import Vessel
+from vessels.services import vessel_save
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
 
@@ -25,7 +26,9 @@ GAP = (5, 3)  # hours ago: the boat was silent from 5 h to 3 h ago
 
 @pytest.fixture
 def voyage(vessel_a: Vessel) -> Vessel:
-    """A fix a minute for 30 hours on a slow circle, with a two-hour reporting gap."""
+    """A fix a minute (its period) for 30 hours on a slow circle, with a two-hour gap."""
+    vessel_a.telemetry_period_s = 60
+    vessel_save(vessel=vessel_a)
     sensor_channel_save(
         channel=SensorChannel(key="water_temp_c", label="Water temperature", unit="°C")
     )

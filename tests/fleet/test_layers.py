@@ -61,6 +61,7 @@ PURE = [
     "telemetry/series.py",
     "telemetry/overview.py",
     "sms/gsm7.py",
+    "fleet/map_actions.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",
     "sms/level2/bodies.py",

@@ -385,6 +385,7 @@
           self.pick = null;
           self.pending = null;
           self.overlay.clearLayers();
+          self.revealCommands = true; // the new command, in view as it moves through its states
           L.DomUtil.removeClass(self.map.getContainer(), "picking");
           self.pollCommands();
         } else {
@@ -475,6 +476,7 @@
       list.appendChild(item);
     });
     box.appendChild(list);
+    if (this.revealCommands) { this.revealCommands = false; box.scrollIntoView({ block: "nearest" }); }
   };
 
   function summary(params) {
