@@ -67,6 +67,8 @@ PURE = [
     "sms/level2/bodies.py",
     "sms/level2/inner.py",
     "sms/level2/payload.py",
+    "sms/modem/at.py",
+    "sms/modem/errors.py",
     "edge_client/catalog.py",
     "edge_client/geo.py",
     "edge_client/mission.py",
