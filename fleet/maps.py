@@ -16,8 +16,7 @@ from django.urls import reverse
 
 from fleet.map_actions import map_actions
 from telemetry.models import SensorChannel
-from vessels.kinds import MAVLINK, WAVE_GLIDER
-from vessels.models import OVERDUE_PERIODS
+from vessels.models import OVERDUE_PERIODS, VesselKind
 
 SLUG = "__slug__"  # placeholder the scripts replace with a vessel's slug
 UID = "__uid__"
@@ -52,7 +51,7 @@ def fleet_map_config(request: HttpRequest) -> dict[str, Any]:
     user = request.user
     can_command = user.has_perm("commands.add_command")
     return {
-        "fleetUrl": "/api/v1/fleet/",
+        "fleetUrl": reverse("fleet"),
         "commandsUrl": _vessel_url("vessel-commands"),
         "cancelUrl": reverse("command-cancel", kwargs={"uid": UID}),
         "trackUrl": _vessel_url("fleet-track") if can_view_track(user) else "",
@@ -65,11 +64,8 @@ def fleet_map_config(request: HttpRequest) -> dict[str, Any]:
         "csrfToken": get_token(request),
         "channels": {"battery_v": BATTERY, **sensor_channels()},
         # Without the add permission, no buttons: the API would answer 403 anyway.
-        "actions": {kind: map_actions(kind) if can_command else [] for kind in KINDS},
+        "actions": {kind: map_actions(kind) if can_command else [] for kind in VesselKind.values},
     }
-
-
-KINDS = (MAVLINK, WAVE_GLIDER)
 
 
 def track_page_config(request: HttpRequest, slug: str) -> dict[str, Any]:
@@ -80,11 +76,10 @@ def track_page_config(request: HttpRequest, slug: str) -> dict[str, Any]:
 
     return {
         "slug": slug,
-        "trackUrl": f"/api/v1/vessels/{slug}/track/",
-        "nearestUrl": f"/api/v1/vessels/{slug}/fixes/nearest/",
-        "seriesUrl": f"/api/v1/vessels/{slug}/series/",
-        "exportUrl": f"/api/v1/vessels/{slug}/track/export/",
-        "fleetUrl": "/api/v1/fleet/",
+        "trackUrl": url("vessel-track"),
+        "nearestUrl": url("vessel-fix-nearest"),
+        "seriesUrl": url("vessel-series"),
+        "exportUrl": url("vessel-track-export"),
         "pageUrl": url("fleet-track"),
         "channels": {"battery_v": BATTERY, **sensor_channels()},
     }

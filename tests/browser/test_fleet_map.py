@@ -174,6 +174,49 @@ def test_the_map_measures_distance_and_bearing_as_the_server_does(
     assert distance_m(51.4778, -0.0015, 40.7486, -73.9864) == pytest.approx(5_570_000, rel=2e-3)
 
 
+def test_a_fixed_heading_is_picked_on_the_map_and_a_light_queued_then_cancelled(
+    browser, live_server, operator_user, glider: Vessel, make_fix
+) -> None:
+    fix_ingest(
+        vessel=glider,
+        records=[make_fix(time=timezone.now().isoformat(), lat=-32.0380, lon=115.3325)],
+    )
+    log_in(browser, live_server, operator_user)
+    wait_for(browser, lambda b: fleet_ready(b) and "glider" in on_the_map(b))
+    js(browser, "window.shoresideFleet.map.setView([-32.0380, 115.3325], 14, {animate: false})")
+    open_panel(browser, "glider")
+    browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="fhead"]').click()
+    the_map = browser.find_element(By.ID, "fleet-map")
+    ActionChains(browser).move_to_element_with_offset(the_map, -120, 90).click().perform()
+    text = wait_for(
+        browser, lambda b: b.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-text")
+    ).text
+    assert text.startswith("Queue “Fixed heading ") and "towards the clicked point" in text
+    shot(browser, "fleet-8-fhead-confirm")
+    browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
+    wait_until(lambda: Command.objects.filter(kind="fhead").exists(), 20, "the fhead")
+    bearing = Command.objects.get(kind="fhead").params["bearing"]
+    assert 180 < bearing < 270  # down and to the left of the glider: south-west
+    assert f"Fixed heading {bearing:03d}°" in text
+
+    browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="light"]').click()
+    browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
+    wait_until(lambda: Command.objects.filter(kind="light").exists(), 20, "the light")
+    light = Command.objects.get(kind="light")
+    assert light.params == {"state": "on"}
+    cancel = f'#fleet-panel li[data-uid="{light.uid}"] .cancel-command'
+    wait_for(browser, lambda b: b.find_elements(By.CSS_SELECTOR, cancel))[0].click()
+    wait_for(
+        browser,
+        lambda b: b.find_elements(
+            By.CSS_SELECTOR, f'#fleet-panel li[data-uid="{light.uid}"][data-status="cancelled"]'
+        ),
+    )
+    light.refresh_from_db()
+    assert light.status == "cancelled"
+    shot(browser, "fleet-9-light-cancelled")
+
+
 HOME = (-31.9800, 115.8200)
 
 

@@ -274,7 +274,7 @@
       }
     });
     box.appendChild(buttons);
-    if (this.pick) {
+    if (this.pick && !this.pending) { // once a point is picked, the confirmation says it all
       var hint = this.pick.input === "point"
         ? "Click the map where " + v.name + " should go (Esc cancels)."
         : "Click a point: " + v.name + " will hold the bearing towards it (Esc cancels). Or type one:";
@@ -399,7 +399,7 @@
       });
   };
 
-  FleetMap.prototype.cancelCommand = function (uid) {
+  FleetMap.prototype.cancelCommand = function (uid, kind) {
     var self = this;
     fetch(this.cfg.cancelUrl.replace("__uid__", uid), {
       method: "POST", credentials: "same-origin",
@@ -411,6 +411,8 @@
           self.renderActions();
         });
       }
+      self.message = { kind: "success", text: "Cancelled: " + kind + " (" + uid.slice(0, 8) + "…)" };
+      self.renderActions();
       self.pollCommands();
     });
   };
@@ -471,7 +473,7 @@
         el("span", { class: "muted small", text: S.fmtDuration(age) + " ago by " + (c.created_by || c.source) + (c.result_detail ? " · " + c.result_detail : "") }),
       ]);
       if (self.cfg.canCancel && CANCELLABLE.indexOf(c.status) >= 0) {
-        item.appendChild(el("button", { type: "button", class: "link-button cancel-command", text: "cancel", onclick: function () { self.cancelCommand(c.uid); } }));
+        item.appendChild(el("button", { type: "button", class: "link-button cancel-command", text: "cancel", onclick: function () { self.cancelCommand(c.uid, c.kind); } }));
       }
       list.appendChild(item);
     });
