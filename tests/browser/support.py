@@ -6,6 +6,7 @@ from collections.abc import Callable
 from typing import Any
 
 from django.contrib.auth.models import User
+from selenium.common.exceptions import NoSuchElementException, StaleElementReferenceException
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import WebDriverWait
 
@@ -28,8 +29,12 @@ def log_in(browser: Any, live_server: Any, user: User) -> None:
     WebDriverWait(browser, 20).until(lambda b: "/admin/login/" not in b.current_url)
 
 
+# The pages redraw their lists as data arrives: an element found a moment ago may be gone.
+RETRIED = (NoSuchElementException, StaleElementReferenceException)
+
+
 def wait_for(browser: Any, predicate: Callable[[Any], Any], timeout: float = WAIT_S) -> Any:
-    return WebDriverWait(browser, timeout).until(predicate)
+    return WebDriverWait(browser, timeout, ignored_exceptions=RETRIED).until(predicate)
 
 
 def js(browser: Any, script: str, *args: Any) -> Any:

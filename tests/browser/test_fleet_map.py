@@ -205,7 +205,7 @@ def test_a_fixed_heading_is_picked_on_the_map_and_a_light_queued_then_cancelled(
     light = Command.objects.get(kind="light")
     assert light.params == {"state": "on"}
     cancel = f'#fleet-panel li[data-uid="{light.uid}"] .cancel-command'
-    wait_for(browser, lambda b: b.find_elements(By.CSS_SELECTOR, cancel))[0].click()
+    wait_for(browser, lambda b: b.find_element(By.CSS_SELECTOR, cancel).click() or True)
     wait_for(
         browser,
         lambda b: b.find_elements(
@@ -281,8 +281,12 @@ def test_a_move_to_queued_from_the_map_is_carried_out_by_the_simulated_boat(
     assert f"{round(metres)} m at {round(bearing) % 360:03d}°" in text
 
     def shown_status(b) -> str | None:
-        items = b.find_elements(By.CSS_SELECTOR, f'#fleet-panel li[data-uid="{command.uid}"]')
-        return items[0].get_attribute("data-status") if items else None
+        return js(
+            b,
+            "var li = document.querySelector('#fleet-panel li[data-uid=\"' + arguments[0] + '\"]');"
+            "return li && li.dataset.status",
+            str(command.uid),
+        )
 
     wait_for(browser, lambda b: shown_status(b) in ("sent", "acknowledged", "done"))
     shot(browser, "fleet-5-move-to-underway")
