@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -58,9 +59,13 @@ SCREENSHOTS = Path(
 )
 
 
+SESSION_START = time.time()
+
+
 def pytest_terminal_summary(terminalreporter: Any) -> None:
-    if SCREENSHOTS.is_dir() and any(SCREENSHOTS.glob("*.png")):
-        terminalreporter.write_line(f"browser screenshots: {SCREENSHOTS}")
+    taken = [p for p in SCREENSHOTS.glob("*.png") if p.stat().st_mtime >= SESSION_START]
+    if taken:
+        terminalreporter.write_line(f"browser screenshots ({len(taken)}): {SCREENSHOTS}")
 
 
 @pytest.fixture(autouse=True)

@@ -153,7 +153,7 @@
     S.getJSON(this.cfg.nearestUrl + "?time=" + encodeURIComponent(iso(new Date(best.t * 1000))))
       .then(answer)
       .then(function (fix) {
-        L.popup({ maxWidth: 320 }).setLatLng([fix.lat, fix.lon]).setContent(self.fixTable(fix)).openOn(map);
+        L.popup({ maxWidth: 340, maxHeight: 260, keepInView: true, autoPanPadding: [12, 12] }).setLatLng([fix.lat, fix.lon]).setContent(self.fixTable(fix)).openOn(map);
         self.markTime(Date.parse(fix.time) / 1000);
       })
       .catch(function (err) { L.popup().setLatLng(latlng).setContent("No fix: " + err.message).openOn(map); });
@@ -165,8 +165,7 @@
     function unit(key) { return cfg.channels[key] ? cfg.channels[key].unit : ""; }
     var rows = [
       ["Time", S.fmtTime(fix.time)],
-      ["Position", S.fmtDDM(fix.lat, fix.lon)],
-      ["", S.fmtLatLon(fix.lat, fix.lon)],
+      ["Position", S.fmtDDM(fix.lat, fix.lon) + " (" + S.fmtLatLon(fix.lat, fix.lon) + ")"],
       ["Speed", S.fmtValue(fix.speed_mps, "m/s")],
       ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
       [label("battery_v"), S.fmtValue(fix.battery_v, unit("battery_v"))],
