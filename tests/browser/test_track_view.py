@@ -120,6 +120,13 @@ def test_an_operator_reads_a_track_changes_its_range_and_links_plots_and_map(
         the_map, x - w / 2, y - h / 2
     ).click().perform()
     popup = wait_for(browser, lambda b: b.find_element(By.CSS_SELECTOR, ".fix-popup"))
+    # Leaflet pans the map (animated) until the whole popup is inside it.
+    inside = (
+        "var p = document.querySelector('.leaflet-popup').getBoundingClientRect(),"
+        " m = document.getElementById('track-map').getBoundingClientRect();"
+        "return p.top >= m.top && p.bottom <= m.bottom"
+    )
+    wait_for(browser, lambda b: js(b, inside))
     shot(browser, "track-4-nearest-fix")
     text = popup.get_attribute("textContent")
     for expected in ("Time", "Position", "Speed", "1.50 m/s", "Heading", "Battery", " V"):

@@ -10,6 +10,7 @@
   var GRID_STEPS = [30, 10, 5, 2, 1, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005];
   var GRID_MAX_LINES = 8;
   var LABEL_CLEAR_PX = 18;
+  var ZOOM_BUTTONS_PX = 90; // Leaflet's zoom control, top left
 
   function rad(d) { return (d * Math.PI) / 180; }
 
@@ -109,22 +110,22 @@
       var digits = Math.max(0, Math.ceil(-Math.log10(step)));
       var style = { color: "#5b7389", weight: 1, opacity: 0.45, interactive: false, dashArray: "2 4" };
       var lat0 = Math.ceil(south / step) * step, lon0 = Math.ceil(west / step) * step;
-      // Latitudes on the right edge, longitudes along the top: the zoom buttons sit top left,
-      // the scale bar and attribution along the bottom.
-      var labelLon = east - (east - west) * 0.004, labelLat = north - (north - south) * 0.004;
+      // Latitudes along the left edge (below the zoom buttons), longitudes along the top: the
+      // scale bar, attribution and cursor position sit along the bottom.
+      var labelLon = west, labelLat = north;
       var size = map.getSize();
       for (var lat = lat0; lat <= north; lat += step) {
         this.addLayer(L.polyline([[lat, west], [lat, east]], style));
-        var y = map.latLngToContainerPoint([lat, east]).y;
-        // Not under the longitude labels along the top, nor the scale bar along the bottom.
-        if (y > LABEL_CLEAR_PX && y < size.y - 2 * LABEL_CLEAR_PX) {
+        var y = map.latLngToContainerPoint([lat, west]).y;
+        // Not under the zoom buttons, nor the scale bar along the bottom.
+        if (y > ZOOM_BUTTONS_PX && y < size.y - 2 * LABEL_CLEAR_PX) {
           this.addLayer(this._label([lat, labelLon], lat.toFixed(digits) + "°", "lat"));
         }
       }
       for (var lon = lon0; lon <= east; lon += step) {
         this.addLayer(L.polyline([[south, lon], [north, lon]], style));
         var x = map.latLngToContainerPoint([north, lon]).x;
-        // Not under the zoom buttons (left), nor the latitude labels (right).
+        // Not under the zoom buttons, and the whole label inside the map.
         if (x > 3 * LABEL_CLEAR_PX && x < size.x - 4 * LABEL_CLEAR_PX) {
           this.addLayer(this._label([labelLat, lon], lon.toFixed(digits) + "°", "lon"));
         }
