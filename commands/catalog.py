@@ -13,6 +13,14 @@ from typing import Any
 
 from commands.errors import CatalogError
 from vessels.kinds import MAVLINK, WAVE_GLIDER
+from vessels.missions import (
+    ENDS,
+    HOLD_MAX_S,
+    RADIUS_MAX_M,
+    RADIUS_MIN_M,
+    SPEED_MAX_MPS,
+    SPEED_MIN_MPS,
+)
 
 # ArduPilot Rover flight modes (ArduPilot Rover/mode.h, `enum Number`); INITIALISING is not
 # a mode an operator can ask for.
@@ -140,14 +148,14 @@ def _fmt(number: float | None) -> str:
 LAT = Param("lat", "float", "latitude, decimal degrees", minimum=-90, maximum=90)
 LON = Param("lon", "float", "longitude, decimal degrees", minimum=-180, maximum=180)
 HOLD_S = Param(
-    "hold_s", "float", "seconds to hold", minimum=0, maximum=86400, required=False, default=0.0
+    "hold_s", "float", "seconds to hold", minimum=0, maximum=HOLD_MAX_S, required=False, default=0.0
 )
 RADIUS_M = Param(
     "radius_m",
     "float",
     "acceptance radius, metres",
-    minimum=0.5,
-    maximum=1000,
+    minimum=RADIUS_MIN_M,
+    maximum=RADIUS_MAX_M,
     required=False,
     default=None,
 )
@@ -155,15 +163,15 @@ SPEED_MPS = Param(
     "speed_mps",
     "float",
     "speed from this item on, m/s (ArduPilot DO_CHANGE_SPEED)",
-    minimum=0.1,
-    maximum=20,
+    minimum=SPEED_MIN_MPS,
+    maximum=SPEED_MAX_MPS,
     required=False,
     default=None,
 )
 MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M, SPEED_MPS)
 # How a mission ends: the boat stops at the last item, starts again from the first, or returns
 # home (ArduPilot: nothing, a DO_JUMP to item 1, a final NAV_RETURN_TO_LAUNCH).
-MISSION_ENDS = ("stop", "loop", "return_home")
+MISSION_ENDS = ENDS
 # ArduPilot keeps a mission in its storage area; on common boards (16 KiB) that holds 724 items
 # (AP_Mission: storage size / 15-byte packed items, less the header). Item 0 is home.
 MISSION_MAX_MAVLINK_ITEMS = 724

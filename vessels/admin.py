@@ -10,6 +10,7 @@ from typing import Any
 from django import forms
 from django.contrib import admin, messages
 from django.core.exceptions import PermissionDenied
+from django.db import models
 from django.db.models import QuerySet
 from django.http import Http404, HttpRequest, HttpResponse
 from django.shortcuts import redirect
@@ -18,6 +19,7 @@ from django.urls import path, reverse
 from django.utils import timezone
 from django.utils.html import format_html, format_html_join
 
+from vessels import missionfiles
 from vessels.errors import MissionFileError
 from vessels.missions import DEFAULT_CRUISE_SPEED_MPS, format_distance, format_duration
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
@@ -229,6 +231,13 @@ class MissionItemInline(admin.TabularInline):
     model = MissionItem
     extra = 3
     fields = ["seq", "lat", "lon", "hold_s", "radius_m", "speed_mps"]
+    # Narrow number boxes: the admin's default width puts the last columns off screen.
+    formfield_overrides = {
+        models.FloatField: {
+            "widget": forms.NumberInput(attrs={"step": "any", "style": "width:8em"})
+        },
+        models.PositiveIntegerField: {"widget": forms.NumberInput(attrs={"style": "width:4em"})},
+    }
 
 
 class MissionImportForm(forms.Form):
@@ -349,6 +358,7 @@ class MissionAdmin(admin.ModelAdmin):
         if request.method == "POST" and form.is_valid():
             upload = form.cleaned_data["file"]
             try:
+                missionfiles.check_size(upload.size)
                 mission, skipped = mission_import(
                     content=upload.read(),
                     filename=upload.name,

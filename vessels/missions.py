@@ -18,9 +18,11 @@ from typing import Any
 
 from vessels.geo import bearing_deg, distance_m
 
-# Per-item ranges, the same as the command catalog's (commands/catalog.py: HOLD_S, RADIUS_M,
-# SPEED_MPS); vessels sits below commands and cannot import them.
-HOLD_MAX_S = 86_400.0
+# Per-item ranges. The command catalog (commands/catalog.py: HOLD_S, RADIUS_M, SPEED_MPS,
+# MISSION_ENDS) takes them from here: vessels sits below commands, so this is their one home.
+# ArduPilot Rover keeps a waypoint's hold in 16 bits and reads it signed (Rover mode_auto.cpp
+# do_nav_wp: a negative delay is none), so 32,767 s is the longest hold a boat can carry out.
+HOLD_MAX_S = 32_767.0
 RADIUS_MIN_M, RADIUS_MAX_M = 0.5, 1000.0
 SPEED_MIN_MPS, SPEED_MAX_MPS = 0.1, 20.0
 ENDS = ("stop", "loop", "return_home")

@@ -164,15 +164,17 @@ class MissionItem(models.Model):
     lat = models.FloatField(validators=_LAT)
     lon = models.FloatField(validators=_LON)
     hold_s = models.FloatField(
-        default=0, validators=[MinValueValidator(0), MaxValueValidator(HOLD_MAX_S)]
+        "hold (s)", default=0, validators=[MinValueValidator(0), MaxValueValidator(HOLD_MAX_S)]
     )
     radius_m = models.FloatField(
+        "radius (m)",
         null=True,
         blank=True,
         validators=[MinValueValidator(RADIUS_MIN_M), MaxValueValidator(RADIUS_MAX_M)],
         help_text="Acceptance radius; empty: the autopilot's own (WP_RADIUS).",
     )
     speed_mps = models.FloatField(
+        "speed (m/s)",
         null=True,
         blank=True,
         validators=[MinValueValidator(SPEED_MIN_MPS), MaxValueValidator(SPEED_MAX_MPS)],

@@ -167,6 +167,11 @@ def mission_save(*, mission: Mission) -> Mission:
     return mission
 
 
+def mission_delete(*, mission: Mission) -> None:
+    """Delete a mission and its items; commands already sent keep their own copy of them."""
+    mission.delete()
+
+
 def mission_problems(*, mission: Mission) -> list[str]:
     """The route checks this mission fails (vessels.missions.problems), [] when none.
 

@@ -77,3 +77,20 @@ def test_operators_and_their_api_tokens_are_managed_in_the_admin(
     admin_ui: Client, url: str
 ) -> None:
     assert admin_ui.get(url).status_code == 200
+
+
+def test_the_send_action_shows_why_a_mission_fails_its_checks(
+    admin_ui: Client, vessel_a: Vessel, settings: object
+) -> None:
+    settings.MISSION_MAX_LEG_M = 1000
+    far = mission_save(mission=Mission(name="Far", vessel=vessel_a))
+    mission_save_items(
+        mission=far, items=[{"lat": -31.9, "lon": 115.8}, {"lat": -32.0, "lon": 115.8}]
+    )
+    response = admin_ui.post(
+        "/admin/vessels/mission/",
+        {"action": "send_to_vessel", "_selected_action": [far.pk]},
+        follow=True,
+    )
+    assert "Far: leg 1 → 2 is 11.1 km, longer than the limit of 1.0 km" in response.content.decode()
+    assert not Command.objects.exists()

@@ -12,9 +12,21 @@ from vessels.errors import MissionFileError
 from vessels.missionfiles import geojson, plan, waypoints
 from vessels.missionfiles.model import Item, MissionFile
 
-__all__ = ["FORMATS", "Item", "MissionFile", "detect", "dump", "load"]
+__all__ = [
+    "FORMATS",
+    "MAX_FILE_BYTES",
+    "Item",
+    "MissionFile",
+    "check_size",
+    "detect",
+    "dump",
+    "load",
+]
 
 FORMATS = ("plan", "waypoints", "geojson")
+# The largest mission ArduPilot stores (724 items) is under 0.5 MB in any of these formats; a
+# file many times that is not a mission, and is refused before it is read into memory.
+MAX_FILE_BYTES = 5 * 1024 * 1024
 _BY_EXTENSION = {
     "plan": "plan",
     "waypoints": "waypoints",
@@ -57,6 +69,14 @@ def _head(content: bytes | str) -> str:
     return head.decode("utf-8", "replace") if isinstance(head, bytes) else head
 
 
+def check_size(size: int) -> None:
+    if size > MAX_FILE_BYTES:
+        raise MissionFileError(
+            f"the file is {size / 1e6:.1f} MB; a mission file is at most "
+            f"{MAX_FILE_BYTES / 1e6:.1f} MB"
+        )
+
+
 def load(
     content: bytes | str,
     *,
@@ -66,6 +86,7 @@ def load(
     name: str = "",
 ) -> MissionFile:
     """Read a mission file; raises MissionFileError (and only that) for anything it cannot."""
+    check_size(len(content))
     format = format or detect(filename=filename, content=content)
     if format not in _LOADERS:
         raise MissionFileError(f"unknown format {format!r} (known: {', '.join(FORMATS)})")

@@ -123,7 +123,7 @@ def finish(
     if errors or (unsupported and not skip_unsupported):
         problems = errors + unsupported
         if unsupported and not errors:
-            problems.append("import again with skip_unsupported to leave these items out")
+            problems.append("to import the rest, import again skipping unsupported items")
         raise MissionFileError(problems[0], problems=problems)
     if not items:
         raise MissionFileError("the file has no waypoints a boat can sail to")
