@@ -13,7 +13,9 @@ from selenium.webdriver.support.ui import Select
 from telemetry.services import fix_ingest
 from tests.browser.support import js, log_in, shot, wait_for
 from tests.conftest import make_user
+from vessels.missions import legs
 from vessels.models import Mission, Vessel
+from vessels.services import mission_save_items
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
 
@@ -26,6 +28,7 @@ PLANNER_PERMS = [
     "vessels.add_missionitem",
     "vessels.change_missionitem",
     "vessels.delete_missionitem",
+    "commands.add_command",  # to send a mission
 ]
 
 
@@ -89,6 +92,25 @@ def test_a_three_point_mission_is_clicked_onto_the_map_dragged_saved_and_reloade
     assert planner_rows(browser) == after
     shot(browser, "planner-4-reloaded")
 
+    # The planner's legs are the server's (vessels/missions.py), speed changes included.
+    rows = [
+        {"lat": i.lat, "lon": i.lon, "hold_s": 0, "speed_mps": 3.0 if i.seq == 2 else None}
+        for i in mission.items.all()
+    ]
+    mission_save_items(mission=mission, items=rows)  # a speed change from item 2 on
+    open_planner(browser, browser.current_url)
+    shown = js(
+        browser,
+        "var p = window.shoresidePlanner; return p.legs(p.items(), p.vessel().cruise).legs"
+        ".slice(1).map(function (l) { return [l.distance, l.time]; })",
+    )
+    items = [{"lat": i.lat, "lon": i.lon, "speed_mps": i.speed_mps} for i in mission.items.all()]
+    server = legs(items, cruise_speed_mps=vessel_a.cruise_speed_mps, end="stop")
+    assert shown == [
+        [pytest.approx(leg.distance_m, rel=1e-9), pytest.approx(leg.time_s, rel=1e-9)]
+        for leg in server
+    ]
+
 
 def test_deleting_and_reordering_in_the_list_keeps_rows_and_map_in_step(
     browser, live_server, planner_user, vessel_a: Vessel
@@ -144,6 +166,11 @@ def test_a_mission_planner_waypoints_file_is_imported_and_shown_on_the_map(
     ]
     assert "Imported" in browser.page_source
     shot(browser, "import-2-on-the-map")
+    js(browser, "window.scrollTo(0, 0)")
+    assert browser.find_element(By.CSS_SELECTOR, ".send-mission button").text.upper() == (
+        "SEND TO SPAB"
+    )
+    shot(browser, "import-3-send-button")
     mission = Mission.objects.get()
     assert [i.speed_mps for i in mission.items.order_by("seq")] == [2.5, None, None]
     assert (mission.home_lat, mission.home_lon) == (-31.979, 115.817)

@@ -163,3 +163,41 @@ def test_the_mission_page_carries_the_planner_over_the_item_rows(
     assert 'id="mission-map"' in html and "vessels/planner.js" in html
     assert 'data-lat="-31.98"' in html and 'name="items-0-lat"' in html
     assert admin_ui.get("/admin/vessels/mission/add/").status_code == 200
+
+
+def test_the_mission_page_sends_the_saved_mission_to_its_vessel(
+    admin_ui: Client, vessel_a: Vessel
+) -> None:
+    mission = mission_save(mission=Mission(name="Bay", vessel=vessel_a))
+    mission_save_items(
+        mission=mission,
+        items=[
+            {"lat": -31.98, "lon": 115.82, "hold_s": 0, "radius_m": 3},
+            {"lat": -31.97, "lon": 115.83, "hold_s": 0, "radius_m": 3},
+        ],
+    )
+    html = admin_ui.get(f"/admin/vessels/mission/{mission.pk}/change/").content.decode()
+    assert "Send to SPAB" in html
+    # What the button's form posts: the list's action for this one mission.
+    answer = admin_ui.post(
+        "/admin/vessels/mission/",
+        {"action": "send_to_vessel", "index": "0", "_selected_action": str(mission.pk)},
+        follow=True,
+    )
+    assert "queued as command" in answer.content.decode()
+    command = vessel_a.commands.get()
+    assert command.kind == "mission" and len(command.params["items"]) == 2
+
+
+def test_a_template_mission_or_an_operator_who_may_not_command_gets_no_send_button(
+    admin_ui: Client, vessel_a: Vessel
+) -> None:
+    template = mission_save(mission=Mission(name="Any boat"))
+    html = admin_ui.get(f"/admin/vessels/mission/{template.pk}/change/").content.decode()
+    assert "send-mission" not in html
+    planner = make_user(
+        "pat", ["vessels.view_vessel", "vessels.view_mission", "vessels.change_mission"]
+    )
+    mission = mission_save(mission=Mission(name="Bay", vessel=vessel_a))
+    html = client_for(planner).get(f"/admin/vessels/mission/{mission.pk}/change/")
+    assert html.status_code == 200 and "send-mission" not in html.content.decode()
