@@ -41,6 +41,7 @@
     document.addEventListener("keydown", function (e) {
       if (e.key === "Escape") { self.cancelPick(); }
     });
+    document.addEventListener("visibilitychange", function () { if (!document.hidden) { self.poll(); } });
     this.poll();
     setInterval(function () { self.tick(); }, 1000);
   }
@@ -62,6 +63,10 @@
 
   FleetMap.prototype.poll = function () {
     var self = this;
+    clearTimeout(this.pollTimer);
+    // A hidden tab costs the link nothing (becoming visible polls again); one poll at a time.
+    if (document.hidden || this.inFlight) { return; }
+    this.inFlight = true;
     var headers = this.etag ? { "If-None-Match": this.etag } : {};
     S.getJSON(this.cfg.fleetUrl, headers)
       .then(function (r) {
@@ -76,7 +81,10 @@
         if (data) { self.update(data); }
       })
       .catch(function (err) { self.setStale(String(err.message || err)); })
-      .then(function () { setTimeout(function () { self.poll(); }, self.cfg.pollS * 1000); });
+      .then(function () {
+        self.inFlight = false;
+        self.pollTimer = setTimeout(function () { self.poll(); }, self.cfg.pollS * 1000);
+      });
   };
 
   FleetMap.prototype.setStale = function (text) {
