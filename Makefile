@@ -17,4 +17,5 @@ lint:
 bench:           ## server, Level 2 and edge client benchmarks, each against an in-run baseline
 	.venv/bin/python -m bench.server
 	.venv/bin/python -m bench.level2
+	.venv/bin/python -m bench.bridge
 	.venv/bin/python -m bench.edge

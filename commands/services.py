@@ -374,3 +374,78 @@ def command_deliver_legacy(*, vessel: Vessel, now: dt.datetime | None = None) ->
                     detail=LEGACY_DELIVERY_NOTE,
                 )
     return commands
+
+
+# --- for transports that hand commands over one at a time (the Wave Glider bridge) ----------
+
+
+@transaction.atomic
+def command_mark_sent(
+    *, command: Command, actor: str, detail: str = "", now: dt.datetime | None = None
+) -> bool:
+    """queued → sent for a command being handed over now; False if it moved first.
+
+    The conditional UPDATE (see :func:`_transition`) makes a racing cancel, supersede or
+    expiry win cleanly: the caller must then not hand the command over.
+    """
+    return _transition(command, Status.SENT, now=now or timezone.now(), actor=actor, detail=detail)
+
+
+@transaction.atomic
+def command_fail_unsent(
+    *, command: Command, reason: str, actor: str, now: dt.datetime | None = None
+) -> bool:
+    """Fail a queued command its transport refuses to send, with the reason; False if it moved.
+
+    The lifecycle (DESIGN §4) has no queued → failed, so the command passes through sent in
+    this one transaction: nobody outside ever sees it sent, and the sent event says that
+    nothing was handed over.
+    """
+    now = now or timezone.now()
+    if not _transition(
+        command, Status.SENT, now=now, actor=actor, detail=f"not handed over: {reason}"
+    ):
+        return False
+    return _transition(command, Status.FAILED, now=now, actor=actor, detail=reason)
+
+
+@transaction.atomic
+def command_complete(
+    *, command: Command, status: str, detail: str, actor: str, now: dt.datetime | None = None
+) -> bool:
+    """Record the final answer on a handed-over command: ``done`` or ``failed``.
+
+    ``done`` goes sent → acknowledged → done (a single ACK both accepts and completes it),
+    ``failed`` goes straight to failed. Returns False, changing nothing, when the command is
+    no longer sent or acknowledged (an operator cancelled it meanwhile, or it already ended).
+    """
+    target = Status(status)
+    if target not in (Status.DONE, Status.FAILED):
+        raise CommandError("status must be done or failed", field="status")
+    now = now or timezone.now()
+    command.refresh_from_db(fields=["status"])
+    if command.status == Status.SENT and target == Status.DONE:
+        if not _transition(command, Status.ACKNOWLEDGED, now=now, actor=actor, detail=detail):
+            return False
+    if command.status not in (Status.SENT, Status.ACKNOWLEDGED):
+        return False
+    return _transition(command, target, now=now, actor=actor, detail=detail)
+
+
+def command_note(
+    *, command: Command, detail: str, actor: str, now: dt.datetime | None = None
+) -> CommandEvent:
+    """Log what happened to a command without changing its status (from = to = current).
+
+    For facts an operator must see in the command's log that are not transitions: a late
+    answer after a timeout, a retry answered again after a restart.
+    """
+    command.refresh_from_db(fields=["status"])
+    return CommandEvent.objects.create(
+        command=command,
+        at=now or timezone.now(),
+        from_status=command.status,
+        to_status=command.status,
+        actor=actor[:150],
+        detail=_storable_text(detail),
+    )

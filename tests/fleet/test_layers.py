@@ -75,6 +75,8 @@ PURE = [
     "sms/level2/bodies.py",
     "sms/level2/inner.py",
     "sms/level2/payload.py",
+    "sms/bridge/records.py",
+    "sms/bridge/machine.py",
     "sms/modem/at.py",
     "sms/modem/errors.py",
     "edge_client/catalog.py",
