@@ -103,6 +103,14 @@ def test_an_operator_logs_in_and_lands_on_the_fleet_map_with_the_demo_vessels(
     assert buttons == ["Fixed heading…", "Hold position", "Marker light: on", "Marker light: off"]
     shot(browser, "fleet-3-panel-glider")
 
+    # From the panel to the glider's track: its demo history, a plot per channel.
+    browser.find_element(By.LINK_TEXT, "Track and plots").click()
+    wait_for(browser, lambda b: "/fleet/vessels/glider/track/" in b.current_url)
+    wait_for(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#plots .plot")) == 4)
+    assert "fixes in range" in browser.find_element(By.ID, "track-summary").text
+    js(browser, "document.getElementById('plots').scrollIntoView()")
+    shot(browser, "fleet-4-glider-plots")
+
 
 def test_the_fleet_map_follows_new_fixes_without_moving_the_view(
     browser, live_server, operator_user, vessel_a: Vessel, make_fix
@@ -192,7 +200,7 @@ def test_a_fixed_heading_is_picked_on_the_map_and_a_light_queued_then_cancelled(
         browser, lambda b: b.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-text")
     ).text
     assert text.startswith("Queue “Fixed heading ") and "towards the clicked point" in text
-    shot(browser, "fleet-8-fhead-confirm")
+    shot(browser, "fleet-9-fhead-confirm")
     browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
     wait_until(lambda: Command.objects.filter(kind="fhead").exists(), 20, "the fhead")
     bearing = Command.objects.get(kind="fhead").params["bearing"]
@@ -214,7 +222,7 @@ def test_a_fixed_heading_is_picked_on_the_map_and_a_light_queued_then_cancelled(
     )
     light.refresh_from_db()
     assert light.status == "cancelled"
-    shot(browser, "fleet-9-light-cancelled")
+    shot(browser, "fleet-10-light-cancelled")
 
 
 HOME = (-31.9800, 115.8200)
@@ -267,7 +275,7 @@ def test_a_move_to_queued_from_the_map_is_carried_out_by_the_simulated_boat(
     assert (
         text.startswith("Move SPAB to ") and " m at " in text and "from its last position" in text
     )
-    shot(browser, "fleet-4-move-to-confirm")
+    shot(browser, "fleet-5-move-to-confirm")
 
     browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
     wait_until(lambda: Command.objects.filter(kind="move_to").exists(), 20, "the move_to")
@@ -289,12 +297,12 @@ def test_a_move_to_queued_from_the_map_is_carried_out_by_the_simulated_boat(
         )
 
     wait_for(browser, lambda b: shown_status(b) in ("sent", "acknowledged", "done"))
-    shot(browser, "fleet-5-move-to-underway")
+    shot(browser, "fleet-6-move-to-underway")
     wait_for(browser, lambda b: shown_status(b) == "done", 60)
     command.refresh_from_db()
     assert command.status == "done"
     wait_for(browser, lambda b: "done" in b.find_element(By.ID, "fleet-panel").text)
-    shot(browser, "fleet-6-move-to-done")
+    shot(browser, "fleet-7-move-to-done")
 
 
 def test_the_fleet_map_draws_without_a_reachable_tile_server(
@@ -307,4 +315,4 @@ def test_the_fleet_map_draws_without_a_reachable_tile_server(
     assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map .leaflet-tile")  # tried them
     assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map .graticule-label")
     assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map .leaflet-control-scale")
-    shot(browser, "fleet-7-unreachable-tiles")
+    shot(browser, "fleet-8-unreachable-tiles")

@@ -95,6 +95,7 @@
   FleetMap.prototype.update = function (data) {
     var self = this;
     if (data.server_time) { this.clockOffsetMs = Date.parse(data.server_time) - Date.now(); }
+    this.version = (this.version || 0) + 1;
     var seen = {};
     this.order = [];
     data.vessels.forEach(function (v) {
@@ -139,31 +140,50 @@
     }
   };
 
+  // The marker's look (shape, colour, heading, name); its age text is set apart, every second.
   FleetMap.prototype.markerHtml = function (v, st) {
     var colour = COLOURS[st.status] || COLOURS["never seen"];
     var heading = v.last_fix && v.last_fix.heading_deg;
     var shape = heading === null || heading === undefined
       ? '<circle r="7" />'
       : '<path d="M0,-12 L7.5,9 L0,4.5 L-7.5,9 Z" transform="rotate(' + Number(heading) + ')" />';
-    var age = st.fixAge === null ? "" : S.fmtDuration(st.fixAge);
-    var label = el("div", { class: "vessel-label" }, [el("b", { text: v.name }), " ", el("span", { class: "vessel-age", text: age })]);
+    var label = el("div", { class: "vessel-label" }, [el("b", { text: v.name }), " ", el("span", { class: "vessel-age" })]);
     return (
       '<svg class="vessel-arrow" viewBox="-13 -13 26 26" width="26" height="26" style="fill:' + colour +
       '">' + shape + "</svg>" + label.outerHTML
     );
   };
 
+  // Every second: ages move on and a silent vessel turns overdue. Nothing is rebuilt unless it
+  // changed, so a click never lands on an element that is being replaced.
   FleetMap.prototype.tick = function () {
     var self = this;
     Object.keys(this.markers).forEach(function (slug) {
       var v = self.vessels[slug], st = self.state(v), node = self.markers[slug].getElement();
       if (!node) { return; }
-      node.innerHTML = self.markerHtml(v, st);
+      var html = self.markerHtml(v, st);
+      if (node.shoresideHtml !== html) { node.innerHTML = html; node.shoresideHtml = html; }
+      node.querySelector(".vessel-age").textContent = st.fixAge === null ? "" : S.fmtDuration(st.fixAge);
       node.setAttribute("data-slug", slug);
       node.setAttribute("data-status", st.status);
       L.DomUtil[slug === self.selected ? "addClass" : "removeClass"](node, "selected");
     });
-    this.renderHead();
+    var key = JSON.stringify([this.selected, this.version, this.order.map(function (slug) {
+      return self.state(self.vessels[slug]).status;
+    })]);
+    if (key !== this.headKey) { this.headKey = key; this.renderHead(); }
+    this.updateAges();
+  };
+
+  FleetMap.prototype.ageSpan = function (since, suffix) {
+    return el("span", { class: "age", "data-since": since, "data-suffix": suffix || "" });
+  };
+
+  FleetMap.prototype.updateAges = function () {
+    var now = this.now();
+    this.panel.querySelectorAll(".age[data-since]").forEach(function (span) {
+      span.textContent = S.fmtDuration((now - Date.parse(span.dataset.since)) / 1000) + span.dataset.suffix;
+    });
   };
 
   FleetMap.prototype.select = function (slug) {
@@ -172,8 +192,7 @@
     this.pick = null;
     this.message = null;
     this.commands = null;
-    this.polls = 0; // answered polls, and how many of them were 304s (the browser tests read them)
-    this.notModified = 0;
+    this.commandsKey = null;
     this.overlay.clearLayers();
     this.targets.clearLayers();
     L.DomUtil.removeClass(this.map.getContainer(), "picking");
@@ -202,7 +221,7 @@
           el("button", { type: "button", class: "link-button", "data-slug": slug, onclick: function () { self.select(slug); } }, [
             el("span", { class: "status-dot status-" + st.status.replace(" ", "-") }),
             el("b", { text: v.name }),
-            el("span", { class: "muted", text: " " + st.status + (st.fixAge === null ? "" : " · " + S.fmtDuration(st.fixAge)) }),
+            el("span", { class: "muted" }, [" " + st.status + (v.last_fix ? " · " : ""), v.last_fix ? self.ageSpan(v.last_fix.time) : null]),
           ]),
         ]));
       });
@@ -226,7 +245,7 @@
       return;
     }
     var rows = [
-      ["Last fix", S.fmtTime(fix.time) + " (" + S.fmtDuration(st.fixAge) + " ago)"],
+      ["Last fix", el("span", {}, [S.fmtTime(fix.time) + " (", this.ageSpan(fix.time, " ago"), ")"])],
       ["Position", S.fmtDDM(fix.lat, fix.lon)],
       ["Speed", fix.speed_mps === null || fix.speed_mps === undefined ? "–" : S.fmtValue(fix.speed_mps, "m/s") + " (" + (fix.speed_mps * 1.943844).toFixed(1) + " kn)"],
       ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
@@ -237,7 +256,10 @@
       rows.push([self.label(key), S.fmtValue(readings[key], self.unit(key))]);
     });
     var table = el("table", { class: "readings" });
-    rows.forEach(function (r) { table.appendChild(el("tr", {}, [el("th", { text: r[0] }), el("td", { text: r[1] })])); });
+    rows.forEach(function (r) {
+      var value = typeof r[1] === "string" ? el("td", { text: r[1] }) : el("td", {}, [r[1]]);
+      table.appendChild(el("tr", {}, [el("th", { text: r[0] }), value]));
+    });
     box.appendChild(table);
   };
 
@@ -436,7 +458,10 @@
       .then(function (r) { return r.ok ? r.json() : null; })
       .then(function (data) {
         if (self.selected !== slug) { return; }
-        self.commands = data ? data.results : null;
+        var commands = data ? data.results : null, key = JSON.stringify(commands);
+        if (key === self.commandsKey) { return; } // unchanged: keep the list (and its buttons)
+        self.commandsKey = key;
+        self.commands = commands;
         self.renderCommands();
       })
       .catch(function () {})
@@ -470,7 +495,6 @@
     if (!this.commands.length) { box.appendChild(el("p", { class: "muted", text: "None yet." })); return; }
     var list = el("ul", { class: "command-list" });
     this.commands.forEach(function (c) {
-      var age = (self.now() - Date.parse(c.created_at)) / 1000;
       var item = el("li", { "data-uid": c.uid, "data-status": c.status, class: OPEN.indexOf(c.status) >= 0 ? "open" : "closed" }, [
         el("span", { class: "status-badge cmd-" + c.status, text: c.status }),
         " ",
@@ -478,7 +502,7 @@
         " ",
         el("span", { class: "muted", text: summary(c.params) }),
         el("br"),
-        el("span", { class: "muted small", text: S.fmtDuration(age) + " ago by " + (c.created_by || c.source) + (c.result_detail ? " · " + c.result_detail : "") }),
+        el("span", { class: "muted small" }, [self.ageSpan(c.created_at, " ago"), " by " + (c.created_by || c.source) + (c.result_detail ? " · " + c.result_detail : "")]),
       ]);
       if (self.cfg.canCancel && CANCELLABLE.indexOf(c.status) >= 0) {
         item.appendChild(el("button", { type: "button", class: "link-button cancel-command", text: "cancel", onclick: function () { self.cancelCommand(c.uid, c.kind); } }));
@@ -486,6 +510,7 @@
       list.appendChild(item);
     });
     box.appendChild(list);
+    this.updateAges();
     if (this.revealCommands) { this.revealCommands = false; box.scrollIntoView({ block: "nearest" }); }
   };
 

@@ -124,6 +124,7 @@
         self.points.push({ lat: c[1], lon: c[0], t: times[i] ? times[i][j] : null, seg: i });
       });
     });
+    this.gapS = props.gap_s || null;
     var text = (props.fixes || 0) + " fixes in range, " + (props.points || this.points.length) + " points drawn";
     if (segments.length > 1) {
       text += ", " + segments.length + " stretches (reporting gaps over " + S.fmtDuration(props.gap_s) + " are breaks)";
@@ -225,6 +226,12 @@
       box.appendChild(el("p", { class: "muted", text: "No sensor data in this range." }));
       return;
     }
+    // Empty buckets between sparse fixes are joined; only a reporting gap (the track's gap_s)
+    // breaks the line, as on the map.
+    function gaps(u, sidx, idx0, idx1, nullGaps) {
+      var pxPerS = u.bbox.width / (u.scales.x.max - u.scales.x.min);
+      return nullGaps.filter(function (g) { return !self.gapS || (g[1] - g[0]) / pxPerS > self.gapS; });
+    }
     keys.forEach(function (key, i) {
       var ch = data.channels[key];
       var colour = COLOURS[i % COLOURS.length];
@@ -245,9 +252,9 @@
         },
         series: [
           { label: "time (UTC)", value: function (u, v) { return v === null || v === undefined ? "–" : S.fmtTime(v); } },
-          { label: "min", stroke: colour + "66", width: 1, value: fmt(unit) },
-          { label: "max", stroke: colour + "66", width: 1, value: fmt(unit) },
-          { label: "mean", stroke: colour, width: 1.5, value: fmt(unit), spanGaps: false },
+          { label: "min", stroke: colour + "66", width: 1, value: fmt(unit), gaps: gaps },
+          { label: "max", stroke: colour + "66", width: 1, value: fmt(unit), gaps: gaps },
+          { label: "mean", stroke: colour, width: 1.5, value: fmt(unit), gaps: gaps },
         ],
         bands: [{ series: [2, 1], fill: colour + "33" }],
         axes: [{ values: timeLabels, space: 70 }, { size: 55 }],
