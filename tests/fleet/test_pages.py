@@ -201,3 +201,8 @@ def test_a_template_mission_or_an_operator_who_may_not_command_gets_no_send_butt
     mission = mission_save(mission=Mission(name="Bay", vessel=vessel_a))
     html = client_for(planner).get(f"/admin/vessels/mission/{mission.pk}/change/")
     assert html.status_code == 200 and "send-mission" not in html.content.decode()
+
+
+def test_a_vessels_admin_page_links_to_its_track(admin_ui: Client, vessel_a: Vessel) -> None:
+    html = admin_ui.get(f"/admin/vessels/vessel/{vessel_a.pk}/change/").content.decode()
+    assert f'href="/fleet/vessels/{vessel_a.slug}/track/"' in html
