@@ -36,6 +36,8 @@
     this.head = this.panel.appendChild(el("div", { class: "panel-head" }));
     this.actionsBox = this.panel.appendChild(el("div", { class: "panel-actions" }));
     this.commandsBox = this.panel.appendChild(el("div", { class: "panel-commands" }));
+    // The readings last: commands and their states stay in view without scrolling.
+    this.readingsBox = this.panel.appendChild(el("div", { class: "panel-readings" }));
     var self = this;
     map.on("click", function (e) { self.mapClicked(e.latlng); });
     document.addEventListener("keydown", function (e) {
@@ -212,6 +214,7 @@
     var self = this;
     var box = this.head;
     box.innerHTML = "";
+    this.readingsBox.innerHTML = "";
     if (!this.selected) {
       box.appendChild(el("h2", { text: "Fleet" }));
       var list = el("ul", { class: "fleet-list" });
@@ -244,8 +247,10 @@
       box.appendChild(el("p", { text: "No fix yet: this vessel has never reported." }));
       return;
     }
+    box = this.readingsBox;
+    box.appendChild(el("h3", { text: "Last fix" }));
     var rows = [
-      ["Last fix", el("span", {}, [S.fmtTime(fix.time) + " (", this.ageSpan(fix.time, " ago"), ")"])],
+      ["Time", el("span", {}, [S.fmtTime(fix.time) + " (", this.ageSpan(fix.time, " ago"), ")"])],
       ["Position", S.fmtDDM(fix.lat, fix.lon)],
       ["Speed", fix.speed_mps === null || fix.speed_mps === undefined ? "–" : S.fmtValue(fix.speed_mps, "m/s") + " (" + (fix.speed_mps * 1.943844).toFixed(1) + " kn)"],
       ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
