@@ -425,18 +425,35 @@ def _mission_fits(params: Mapping[str, Any]) -> None:
         )
 
 
+def split_text(text: str) -> tuple[str, list[str]]:
+    """One text command's word (upper case, without ``#``) and its values, split on spaces."""
+    tokens = text.strip().split()
+    if not tokens or not tokens[0].startswith("#"):
+        raise CatalogError("a command starts with # (for example #FHEAD 230)")
+    return tokens[0][1:].upper(), tokens[1:]
+
+
+def sms_kind(word: str) -> CommandKind:
+    """The kind whose whole SMS word is ``word`` (``HOLDWP`` is never ``HOLD``)."""
+    spec = SMS_WORDS.get(word)
+    if spec is None:
+        raise CatalogError(f"unknown command #{word}", field="kind")
+    return spec
+
+
 def parse_text(text: str, *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:
     """Parse the SMS text form (``#FHEAD 230``, ``#FCOURSE HOLD 3 4 1``) into a valid command.
 
     Every token must be used: ``#FSEQ 1 1`` is refused rather than sent short (thesis Table 4).
     """
-    tokens = text.strip().split()
-    if not tokens or not tokens[0].startswith("#"):
-        raise CatalogError("a command starts with # (for example #FHEAD 230)")
-    word, args = tokens[0][1:].upper(), tokens[1:]
-    spec = SMS_WORDS.get(word)
-    if spec is None:
-        raise CatalogError(f"unknown command #{word}", field="kind")
+    word, args = split_text(text)
+    return parse_words(word, args, vessel_kind=vessel_kind)
+
+
+def parse_words(word: str, args: Sequence[str], *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:
+    """The text form already split into its word and values (see :func:`split_text`)."""
+    spec = sms_kind(word)
+    args = list(args)
     params: dict[str, Any] = {}
     for param in spec.params:
         if param.kind == "indices":

@@ -70,6 +70,8 @@ PURE = [
     "telemetry/overview.py",
     "sms/gsm7.py",
     "fleet/map_actions.py",
+    "sms/language.py",
+    "sms/errors.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",
     "sms/level2/bodies.py",
