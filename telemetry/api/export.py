@@ -16,7 +16,7 @@ from xml.sax.saxutils import escape
 from django.db import connection
 
 from telemetry.models import Fix
-from telemetry.selectors import db_time
+from telemetry.selectors import db_time, epoch_sql, iso_sql
 
 EXPORT_CHUNK = 5000
 FORMATS = {
@@ -28,17 +28,25 @@ CSV_HEADER = "time,lat,lon,heading_deg,speed_mps,battery_v,readings\r\n"
 GPX_NS = "http://www.topografix.com/GPX/1/1"
 # Our own GPX extension namespace for speed and battery (GPX 1.1 has no field for either).
 EXT_NS = "https://shoreside.invalid/gpx/1"
+QUOTE = '"'
 
-Row = tuple[Any, float, float, float | None, float | None, float | None, Any]
+# (time as ISO text, Unix seconds, lat, lon, heading, speed, battery, readings as JSON text)
+Row = tuple[str, float, float, float, float | None, float | None, float | None, str]
 
 
-def _rows(vessel_id: int, start: dt.datetime, end: dt.datetime) -> Iterator[list[Row]]:
+def _rows(
+    vessel_id: int, start: dt.datetime, end: dt.datetime, *, epoch: bool = False
+) -> Iterator[list[Row]]:
+    """The fixes of [start, end) in chunks; the Unix time only if ``epoch`` (GPX's breaks):
+    on SQLite it costs a date parse per row."""
     qn = connection.ops.quote_name
-    columns = ("recorded_at", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings")
+    t = qn("recorded_at")
+    numbers = [qn(c) for c in ("lat", "lon", "heading_deg", "speed_mps", "battery_v")]
+    time_columns = [iso_sql(t), epoch_sql(t) if epoch else "NULL"]
+    columns = [*time_columns, *numbers, f"CAST({qn('readings')} AS TEXT)"]
     sql = (
-        f"SELECT {', '.join(qn(c) for c in columns)} FROM {qn(Fix._meta.db_table)}"
-        f" WHERE {qn('vessel_id')} = %s AND {qn('recorded_at')} >= %s"
-        f" AND {qn('recorded_at')} < %s ORDER BY {qn('recorded_at')}"
+        f"SELECT {', '.join(columns)} FROM {qn(Fix._meta.db_table)}"
+        f" WHERE {qn('vessel_id')} = %s AND {t} >= %s AND {t} < %s ORDER BY {t}"
     )
     # chunked_cursor: a named (server-side) cursor on PostgreSQL, so rows arrive as read.
     with connection.chunked_cursor() as cursor:
@@ -47,43 +55,15 @@ def _rows(vessel_id: int, start: dt.datetime, end: dt.datetime) -> Iterator[list
             yield rows
 
 
-def _iso(value: Any) -> str:
-    """A stored recorded_at as ISO 8601 UTC with a Z."""
-    if isinstance(value, str):  # SQLite: "YYYY-MM-DD HH:MM:SS[.ffffff]", naive UTC
-        return f"{value[:10]}T{value[11:]}Z"
-    return value.astimezone(dt.UTC).replace(tzinfo=None).isoformat() + "Z"
-
-
-def _epoch(value: Any) -> float:
-    if isinstance(value, str):
-        return dt.datetime.fromisoformat(value).replace(tzinfo=dt.UTC).timestamp()
-    return value.timestamp()
-
-
-def _json_text(value: Any) -> str:
-    """A readings column as JSON text: stored text as is (SQLite), else encoded."""
-    if value is None:
-        return "{}"
-    if isinstance(value, bytes):
-        return value.decode()
-    return value if isinstance(value, str) else json.dumps(value)
-
-
-def _num(value: float | None) -> str:
-    return "" if value is None else repr(value)
-
-
-def _json_num(value: float | None) -> str:
-    return "null" if value is None else repr(value)
-
-
 def csv_chunks(vessel_id: int, start: dt.datetime, end: dt.datetime) -> Iterator[str]:
     yield CSV_HEADER
     for rows in _rows(vessel_id, start, end):
         yield "".join(
-            f"{_iso(t)},{lat!r},{lon!r},{_num(h)},{_num(s)},{_num(b)},"
-            f'"{_json_text(r).replace(chr(34), chr(34) * 2)}"\r\n'
-            for t, lat, lon, h, s, b, r in rows
+            # None checks inline: a helper call per value was a fifth of the export (profiled).
+            f"{t},{lat!r},{lon!r},{'' if h is None else repr(h)},"
+            f"{'' if s is None else repr(s)},{'' if b is None else repr(b)},"
+            f'"{(r or "{}").replace(QUOTE, QUOTE * 2)}"\r\n'
+            for t, _epoch, lat, lon, h, s, b, r in rows
         )
 
 
@@ -96,12 +76,13 @@ def geojson_chunks(
     separator = ""
     for rows in _rows(vessel_id, start, end):
         parts = []
-        for t, lat, lon, h, s, b, r in rows:
+        for t, _epoch, lat, lon, h, s, b, r in rows:
             parts.append(
                 f'{separator}{{"type":"Feature","geometry":{{"type":"Point",'
-                f'"coordinates":[{lon!r},{lat!r}]}},"properties":{{"time":"{_iso(t)}",'
-                f'"heading_deg":{_json_num(h)},"speed_mps":{_json_num(s)},'
-                f'"battery_v":{_json_num(b)},"readings":{_json_text(r)}}}}}'
+                f'"coordinates":[{lon!r},{lat!r}]}},"properties":{{"time":"{t}",'
+                f'"heading_deg":{"null" if h is None else repr(h)},'
+                f'"speed_mps":{"null" if s is None else repr(s)},'
+                f'"battery_v":{"null" if b is None else repr(b)},"readings":{r or "{}"}}}}}'
             )
             separator = ","
         yield "".join(parts)
@@ -118,10 +99,9 @@ def gpx_chunks(
         f"<trk><name>{escape(name)}</name>\n"
     )
     previous: float | None = None
-    for rows in _rows(vessel_id, start, end):
+    for rows in _rows(vessel_id, start, end, epoch=True):
         parts = []
-        for t, lat, lon, _h, s, b, _r in rows:
-            now = _epoch(t)
+        for t, now, lat, lon, _h, s, b, _r in rows:
             if previous is None:
                 parts.append("<trkseg>\n")
             elif now - previous > gap_s:
@@ -129,7 +109,7 @@ def gpx_chunks(
             previous = now
             extensions = _gpx_extensions(s, b)
             parts.append(
-                f'<trkpt lat="{lat!r}" lon="{lon!r}"><time>{_iso(t)}</time>{extensions}</trkpt>\n'
+                f'<trkpt lat="{lat!r}" lon="{lon!r}"><time>{t}</time>{extensions}</trkpt>\n'
             )
         yield "".join(parts)
     yield ("</trkseg>\n" if previous is not None else "") + "</trk>\n</gpx>\n"
