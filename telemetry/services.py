@@ -12,6 +12,7 @@ from typing import Any
 
 from django.conf import settings
 from django.db import DatabaseError, connection, transaction
+from django.db.models import QuerySet
 from django.utils import timezone
 
 from telemetry import selectors
@@ -415,3 +416,16 @@ def _replace_buckets(
                 for s in summaries
             ],
         )  # fmt: skip
+
+
+def fixes_delete(*, fixes: QuerySet[Fix]) -> int:
+    """Delete fixes (the admin's delete) and mark their minutes for the track overview."""
+    with transaction.atomic():
+        marks: dict[int, list[dt.datetime]] = {}
+        for vessel_id, recorded_at in fixes.values_list("vessel_id", "recorded_at").iterator():
+            marks.setdefault(vessel_id, []).append(recorded_at)
+        for vessel_id, times in marks.items():
+            for start in range(0, len(times), INSERT_CHUNK):
+                _mark_dirty(vessel_id, times[start : start + INSERT_CHUNK])
+        deleted, _ = Fix.objects.filter(pk__in=fixes.values("pk")).delete()
+    return deleted
