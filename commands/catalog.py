@@ -13,6 +13,14 @@ from typing import Any
 
 from commands.errors import CatalogError
 from vessels.kinds import MAVLINK, WAVE_GLIDER
+from vessels.missions import (
+    ENDS,
+    HOLD_MAX_S,
+    RADIUS_MAX_M,
+    RADIUS_MIN_M,
+    SPEED_MAX_MPS,
+    SPEED_MIN_MPS,
+)
 
 # ArduPilot Rover flight modes (ArduPilot Rover/mode.h, `enum Number`); INITIALISING is not
 # a mode an operator can ask for.
@@ -140,14 +148,14 @@ def _fmt(number: float | None) -> str:
 LAT = Param("lat", "float", "latitude, decimal degrees", minimum=-90, maximum=90)
 LON = Param("lon", "float", "longitude, decimal degrees", minimum=-180, maximum=180)
 HOLD_S = Param(
-    "hold_s", "float", "seconds to hold", minimum=0, maximum=86400, required=False, default=0.0
+    "hold_s", "float", "seconds to hold", minimum=0, maximum=HOLD_MAX_S, required=False, default=0.0
 )
 RADIUS_M = Param(
     "radius_m",
     "float",
     "acceptance radius, metres",
-    minimum=0.5,
-    maximum=1000,
+    minimum=RADIUS_MIN_M,
+    maximum=RADIUS_MAX_M,
     required=False,
     default=None,
 )
@@ -155,15 +163,15 @@ SPEED_MPS = Param(
     "speed_mps",
     "float",
     "speed from this item on, m/s (ArduPilot DO_CHANGE_SPEED)",
-    minimum=0.1,
-    maximum=20,
+    minimum=SPEED_MIN_MPS,
+    maximum=SPEED_MAX_MPS,
     required=False,
     default=None,
 )
 MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M, SPEED_MPS)
 # How a mission ends: the boat stops at the last item, starts again from the first, or returns
 # home (ArduPilot: nothing, a DO_JUMP to item 1, a final NAV_RETURN_TO_LAUNCH).
-MISSION_ENDS = ("stop", "loop", "return_home")
+MISSION_ENDS = ENDS
 # ArduPilot keeps a mission in its storage area; on common boards (16 KiB) that holds 724 items
 # (AP_Mission: storage size / 15-byte packed items, less the header). Item 0 is home.
 MISSION_MAX_MAVLINK_ITEMS = 724
@@ -388,6 +396,7 @@ def validate(kind: str, params: Any, *, vessel_kind: str | None = None) -> Valid
     clean = _clean_params(spec.params, params)
     if spec.name == "mission":
         clean = _mission_end(clean)
+        _mission_fits(clean)
     return ValidCommand(kind=spec.name, params=clean, navigation=spec.navigation)
 
 
@@ -405,18 +414,46 @@ def _mission_end(params: dict[str, Any]) -> dict[str, Any]:
     return {**params, "end": end, "loop": end == "loop"}
 
 
+def _mission_fits(params: Mapping[str, Any]) -> None:
+    """The autopilot must be able to store the mission it is sent (see the count above)."""
+    count = mission_mavlink_item_count(params["items"], params["end"])
+    if count > MISSION_MAX_MAVLINK_ITEMS:
+        raise CatalogError(
+            f"the mission needs {count} autopilot items (home, waypoints, speed changes and "
+            f"its end); the autopilot stores at most {MISSION_MAX_MAVLINK_ITEMS}",
+            field="items",
+        )
+
+
+def split_text(text: str) -> tuple[str, list[str]]:
+    """One text command's word (upper case, without ``#``) and its values, split on spaces."""
+    tokens = text.strip().split()
+    if not tokens or not tokens[0].startswith("#"):
+        raise CatalogError("a command starts with # (for example #FHEAD 230)")
+    return tokens[0][1:].upper(), tokens[1:]
+
+
+def sms_kind(word: str) -> CommandKind:
+    """The kind whose whole SMS word is ``word`` (``HOLDWP`` is never ``HOLD``)."""
+    spec = SMS_WORDS.get(word)
+    if spec is None:
+        raise CatalogError(f"unknown command #{word}", field="kind")
+    return spec
+
+
 def parse_text(text: str, *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:
     """Parse the SMS text form (``#FHEAD 230``, ``#FCOURSE HOLD 3 4 1``) into a valid command.
 
     Every token must be used: ``#FSEQ 1 1`` is refused rather than sent short (thesis Table 4).
     """
-    tokens = text.strip().split()
-    if not tokens or not tokens[0].startswith("#"):
-        raise CatalogError("a command starts with # (for example #FHEAD 230)")
-    word, args = tokens[0][1:].upper(), tokens[1:]
-    spec = SMS_WORDS.get(word)
-    if spec is None:
-        raise CatalogError(f"unknown command #{word}", field="kind")
+    word, args = split_text(text)
+    return parse_words(word, args, vessel_kind=vessel_kind)
+
+
+def parse_words(word: str, args: Sequence[str], *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:
+    """The text form already split into its word and values (see :func:`split_text`)."""
+    spec = sms_kind(word)
+    args = list(args)
     params: dict[str, Any] = {}
     for param in spec.params:
         if param.kind == "indices":

@@ -70,7 +70,10 @@ class CommandForm(forms.ModelForm):
         for kind in catalog.KINDS.values():
             names = []
             for param in kind.params:
-                if param.kind == "items" or (kind.name == "mission" and param.name == "loop"):
+                # A mission's items and end come from the chosen Mission (as_params).
+                if param.kind == "items" or (
+                    kind.name == "mission" and param.name in {"loop", "end"}
+                ):
                     continue
                 name = field_name(kind.name, param.name)
                 self.fields[name] = _form_field(param)

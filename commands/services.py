@@ -12,7 +12,7 @@ from django.db import connection, transaction
 from django.utils import timezone
 
 from commands import catalog
-from commands.errors import CommandError, CommandNotFound, TransitionError
+from commands.errors import CatalogError, CommandError, CommandNotFound, TransitionError
 from commands.lifecycle import (
     ACK_STATUSES,
     FINAL,
@@ -22,7 +22,8 @@ from commands.lifecycle import (
     check_transition,
 )
 from commands.models import Command, CommandEvent, Source
-from vessels.models import Vessel
+from vessels import missions
+from vessels.models import Mission, Vessel
 from vessels.services import vessel_bump_commands_version
 
 # Which timestamp field each status sets.
@@ -95,6 +96,10 @@ def command_validate(
     """
     now = now or timezone.now()
     valid = catalog.validate(kind, params, vessel_kind=vessel.kind)
+    if valid.kind == "mission":
+        found = _mission_route_problems(valid.params)
+        if found:
+            raise CatalogError("; ".join(found), field="items")
     if not vessel.active:
         raise CommandError(f"vessel {vessel.slug} is not active")
     if expires_at is None:
@@ -102,6 +107,50 @@ def command_validate(
     elif expires_at <= now:
         raise CommandError("expires_at must be in the future")
     return valid, expires_at
+
+
+def _mission_route_problems(params: dict[str, Any]) -> list[str]:
+    # The catalog is pure and reads no settings: the configurable leg limit enters here.
+    return missions.problems(
+        params["items"], max_leg_m=settings.MISSION_MAX_LEG_M, end=params["end"]
+    )
+
+
+def mission_problems(*, mission: Mission, vessel: Vessel | None = None) -> list[str]:
+    """Every reason sending ``mission`` (to ``vessel``, default its own) would be refused by
+    the catalog or the mission checks, [] when none. Writes nothing: the admin shows these
+    when a mission is saved."""
+    vessel = vessel or mission.vessel
+    try:
+        valid = catalog.validate(
+            "mission", mission.as_params(), vessel_kind=vessel.kind if vessel else None
+        )
+    except CatalogError as exc:
+        return [exc.message]
+    return _mission_route_problems(valid.params)
+
+
+def mission_send(
+    *,
+    mission: Mission,
+    vessel: Vessel | None = None,
+    source: str = Source.API,
+    created_by: str = "",
+    now: dt.datetime | None = None,
+) -> Command:
+    """Queue ``mission`` as a `mission` command for ``vessel`` (default: the mission's own).
+    Checked like every command (catalog, mission checks); raises CommandError."""
+    vessel = vessel or mission.vessel
+    if vessel is None:
+        raise CommandError("a template has no vessel; copy it to one.", field="vessel")
+    return command_enqueue(
+        vessel=vessel,
+        kind="mission",
+        params=mission.as_params(),
+        source=source,
+        created_by=created_by,
+        now=now,
+    )
 
 
 @transaction.atomic
@@ -325,3 +374,78 @@ def command_deliver_legacy(*, vessel: Vessel, now: dt.datetime | None = None) ->
                     detail=LEGACY_DELIVERY_NOTE,
                 )
     return commands
+
+
+# --- for transports that hand commands over one at a time (the Wave Glider bridge) ----------
+
+
+@transaction.atomic
+def command_mark_sent(
+    *, command: Command, actor: str, detail: str = "", now: dt.datetime | None = None
+) -> bool:
+    """queued → sent for a command being handed over now; False if it moved first.
+
+    The conditional UPDATE (see :func:`_transition`) makes a racing cancel, supersede or
+    expiry win cleanly: the caller must then not hand the command over.
+    """
+    return _transition(command, Status.SENT, now=now or timezone.now(), actor=actor, detail=detail)
+
+
+@transaction.atomic
+def command_fail_unsent(
+    *, command: Command, reason: str, actor: str, now: dt.datetime | None = None
+) -> bool:
+    """Fail a queued command its transport refuses to send, with the reason; False if it moved.
+
+    The lifecycle (DESIGN §4) has no queued → failed, so the command passes through sent in
+    this one transaction: nobody outside ever sees it sent, and the sent event says that
+    nothing was handed over.
+    """
+    now = now or timezone.now()
+    if not _transition(
+        command, Status.SENT, now=now, actor=actor, detail=f"not handed over: {reason}"
+    ):
+        return False
+    return _transition(command, Status.FAILED, now=now, actor=actor, detail=reason)
+
+
+@transaction.atomic
+def command_complete(
+    *, command: Command, status: str, detail: str, actor: str, now: dt.datetime | None = None
+) -> bool:
+    """Record the final answer on a handed-over command: ``done`` or ``failed``.
+
+    ``done`` goes sent → acknowledged → done (a single ACK both accepts and completes it),
+    ``failed`` goes straight to failed. Returns False, changing nothing, when the command is
+    no longer sent or acknowledged (an operator cancelled it meanwhile, or it already ended).
+    """
+    target = Status(status)
+    if target not in (Status.DONE, Status.FAILED):
+        raise CommandError("status must be done or failed", field="status")
+    now = now or timezone.now()
+    command.refresh_from_db(fields=["status"])
+    if command.status == Status.SENT and target == Status.DONE:
+        if not _transition(command, Status.ACKNOWLEDGED, now=now, actor=actor, detail=detail):
+            return False
+    if command.status not in (Status.SENT, Status.ACKNOWLEDGED):
+        return False
+    return _transition(command, target, now=now, actor=actor, detail=detail)
+
+
+def command_note(
+    *, command: Command, detail: str, actor: str, now: dt.datetime | None = None
+) -> CommandEvent:
+    """Log what happened to a command without changing its status (from = to = current).
+
+    For facts an operator must see in the command's log that are not transitions: a late
+    answer after a timeout, a retry answered again after a restart.
+    """
+    command.refresh_from_db(fields=["status"])
+    return CommandEvent.objects.create(
+        command=command,
+        at=now or timezone.now(),
+        from_status=command.status,
+        to_status=command.status,
+        actor=actor[:150],
+        detail=_storable_text(detail),
+    )

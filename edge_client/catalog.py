@@ -30,7 +30,7 @@ MISSION_ENDS: tuple[str, ...] = ("stop", "loop", "return_home")
 RANGES: dict[str, tuple[float | None, float | None]] = {
     "lat": (-90, 90),
     "lon": (-180, 180),
-    "hold_s": (0, 86400),
+    "hold_s": (0, 32767),
     "radius_m": (0.5, 1000),
     "speed_mps": (0.1, 20),
     "mission_id": (1, None),

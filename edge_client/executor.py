@@ -13,9 +13,12 @@ Kind → action (mission-files.md for the Rover modes):
 ``move_to`` GUIDED + SET_POSITION_TARGET_GLOBAL_INT, done within the acceptance radius;
 ``hold`` HOLD; ``resume`` AUTO; ``return_home`` RTL, done within the acceptance radius of home
 (or when Rover says "Reached destination" and holds there); ``set_mode``; ``arm``/``disarm``;
-``mission`` upload (home as item 0) then MISSION_SET_CURRENT 1 and AUTO, done when the last
-waypoint is reached (a looping mission is done once it is running). Commands that make the boat
-move arm it first when it is disarmed (``arm_before_move``), waiting out pre-arm checks.
+``mission`` upload (home as item 0, :func:`edge_client.mission.build_mission`) then
+MISSION_SET_CURRENT 1 and AUTO; by its ``end``: ``stop`` is done when Rover reports the last
+waypoint reached (after its hold), ``return_home`` when the final NAV_RETURN_TO_LAUNCH has
+brought it home (as ``return_home`` sees it, but in AUTO), ``loop`` once running. Commands
+that make the boat move arm it first when it is disarmed (``arm_before_move``), waiting out
+pre-arm checks.
 A command polled before the autopilot's first HEARTBEAT (the Pi and the server can be quicker
 than the autopilot after a power-up) waits for it, and a mode that needs a position is
 retried while the autopilot is still getting one; each wait lasts at most ``ready_timeout_s``
@@ -46,7 +49,14 @@ from edge_client.catalog import (
 )
 from edge_client.config import CommandsConfig
 from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
-from edge_client.mission import MAV_CMD_NAV_WAYPOINT, build_mission, result_name
+from edge_client.mission import (
+    FIRST_ITEM,
+    MAV_CMD_NAV_WAYPOINT,
+    MissionError,
+    MissionItem,
+    build_mission,
+    result_name,
+)
 from edge_client.outbox import Outbox
 from edge_client.vehicle import CLOCK_SANE_AFTER
 
@@ -63,6 +73,7 @@ POSITION_MODES = frozenset(
 MODE_RETRY_S = 2.0  # between mode-change attempts while the autopilot gets its position
 HEARTBEAT_WAIT_S = 0.5  # between looks for the autopilot's HEARTBEAT
 RTL_ARRIVED = "Reached destination"  # Rover/mode_rtl.cpp STATUSTEXT; a boat then loiters there
+MISSION_COMPLETE = "Mission Complete"  # Rover/mode_auto.cpp exit_mission STATUSTEXT
 
 
 class CommandError(ValueError):
@@ -421,34 +432,49 @@ class Executor:
         self._simple_mode(command, "AUTO")
 
     def _do_return_home(self, command: Command, p: dict[str, Any]) -> None:
-        state = self.link.state
         self.link.target()
         self._ensure_armed()
-        if state.home is None:
-            self.link.request_message(HOME_POSITION_ID)  # its answer sets state.home
+        self._ask_for_home()
         detail = self._mode("RTL")
-        said = state.statustext_count  # after the mode change: an older arrival is not ours
+        arrived = self._home_watch("RTL", self.link.state.statustext_count)
         self._ack(command, ACKNOWLEDGED, detail)
+        self.active = Active(command, arrived)
+
+    def _ask_for_home(self) -> None:
+        if self.link.state.home is None:
+            self.link.request_message(HOME_POSITION_ID)  # its answer sets state.home
+
+    def _home_watch(
+        self, mode: str, said: int, returning: Callable[[], bool] = lambda: True
+    ) -> Callable[[], tuple[str, str] | None]:
+        """A check that the boat, returning home in ``mode``, got there.
+
+        Done within ``acceptance_radius_m`` of home (once ``returning()`` says the return is
+        under way: a mission may start at home), or when Rover says "Reached destination"
+        after ``said`` (the STATUSTEXT count when the return was asked for: an older arrival
+        is not ours) while still in ``mode``. Failed when the mode changes first.
+        """
+        state = self.link.state
         radius = self.config.acceptance_radius_m
-        seen = ModeSeen("RTL")
+        seen = ModeSeen(mode)
 
         def check() -> tuple[str, str] | None:
             nonlocal said
             home = state.home
             distance = state.distance_to(*home) if home else None
-            if distance is not None and distance <= radius:
+            if distance is not None and distance <= radius and returning():
                 return DONE, f"home: arrived within {distance:.1f} m (radius {radius:g} m)"
             # Count first: a text landing in between is seen twice rather than never.
             count = state.statustext_count
             heard, said = state.statustext_since(said), count
-            if RTL_ARRIVED in heard and state.mode == "RTL":
+            if RTL_ARRIVED in heard and state.mode == mode:
                 # Rover's RTL may end at a rally point, or home may still be unknown to us.
                 return DONE, "the autopilot reports it reached home and holds there"
             if seen.left(state.mode):
                 return FAILED, f"mode changed to {state.mode} before reaching home"
             return None
 
-        self.active = Active(command, check)
+        return check
 
     def _do_set_mode(self, command: Command, p: dict[str, Any]) -> None:
         self._simple_mode(command, p["mode"])
@@ -473,7 +499,10 @@ class Executor:
         self.link.target()
         # Item 0 is home for ArduPilot; it keeps its own home, so any sane position will do.
         home = state.home or ((state.lat, state.lon) if state.lat is not None else (0.0, 0.0))
-        items = build_mission(home, p["items"], loop=p["loop"])
+        try:
+            items = build_mission(home, p["items"], end=p["end"])
+        except MissionError as exc:
+            raise CommandError(str(exc)) from None
         upload = self.link.upload_mission(items)
         if not upload.ok:
             raise CommandError(f"mission upload failed: {upload.error}")
@@ -483,27 +512,68 @@ class Executor:
             f"{len(p['items'])} waypoints accepted ({result_name(upload.result)})",
         )
         self._ensure_armed()
-        state.last_reached = None
-        self.link.set_mission_current(1)
+        if p["end"] == "return_home":
+            self._ask_for_home()
+        # Forget the last mission's progress: only what this one reports counts.
+        state.last_reached = state.mission_seq = None
+        self.link.set_mission_current(FIRST_ITEM)
         self._mode("AUTO")
-        if p["loop"]:
+        said = state.statustext_count  # after the mode change: older texts are not this mission's
+        if p["end"] == "loop":
             self._ack(command, DONE, "looping mission running in AUTO")
             return
-        last = max(i.seq for i in items if i.command == MAV_CMD_NAV_WAYPOINT)
-        end = p["items"][-1]
-        radius = max(self.config.acceptance_radius_m, end["radius_m"])
+        if p["end"] == "return_home":
+            self.active = Active(command, self._mission_home_watch(items, said))
+            return
+        self.active = Active(command, self._mission_end_watch(items, p["items"][-1], said))
 
+    def _mission_end_watch(
+        self, items: list[MissionItem], end: dict[str, Any], said: int
+    ) -> Callable[[], tuple[str, str] | None]:
+        """Done when Rover reports the last waypoint reached: MISSION_ITEM_REACHED, which it
+        sends once the waypoint's hold is over (Rover/mode_auto.cpp
+        ``verify_command_callback``), or its "Mission Complete" if that message was lost.
+        Rover then stops and stays in AUTO (MIS_DONE_BEHAVE 0); leaving AUTO first fails."""
+        state = self.link.state
+        last = max(i.seq for i in items if i.command == MAV_CMD_NAV_WAYPOINT)
+        radius = max(self.config.acceptance_radius_m, end["radius_m"])
         seen = ModeSeen("AUTO")
 
         def check() -> tuple[str, str] | None:
+            nonlocal said
             if state.last_reached == last:
                 return DONE, f"mission complete: reached waypoint {last}"
+            count = state.statustext_count
+            heard, said = state.statustext_since(said), count
+            if MISSION_COMPLETE in heard and state.mode == "AUTO":
+                return DONE, f"mission complete: the autopilot says so (waypoint {last})"
             if seen.left(state.mode):
-                # MISSION_ITEM_REACHED may have been lost; Rover switches to HOLD at the end.
+                # Someone changed the mode; if it was right at the end, the mission is done.
                 near = state.distance_to(end["lat"], end["lon"])
                 if state.mission_seq == last and near is not None and near <= radius:
                     return DONE, f"mission complete: {near:.1f} m from the last waypoint"
                 return FAILED, f"mode changed to {state.mode} at item {state.mission_seq}"
             return None
 
-        self.active = Active(command, check)
+        return check
+
+    def _mission_home_watch(
+        self, items: list[MissionItem], said: int
+    ) -> Callable[[], tuple[str, str] | None]:
+        """Done when the final NAV_RETURN_TO_LAUNCH has brought the boat home.
+
+        Rover runs it inside AUTO (Rover/mode_auto.cpp ``start_RTL``: the RTL sub-mode, the
+        mode stays AUTO), says "Reached destination" on arrival and then sends
+        MISSION_ITEM_REACHED for the RTL item. The position check of :meth:`_home_watch`
+        counts only once the RTL item is the current one (the boat may start at home).
+        """
+        state = self.link.state
+        rtl = items[-1].seq
+        home_reached = self._home_watch("AUTO", said, lambda: state.mission_seq == rtl)
+
+        def check() -> tuple[str, str] | None:
+            if state.last_reached == rtl:
+                return DONE, f"mission complete: home reached (item {rtl})"
+            return home_reached()
+
+        return check

@@ -20,11 +20,15 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-# common.xml MAV_CMD / MAV_FRAME / MAV_MISSION_RESULT values.
+# common.xml MAV_CMD / MAV_FRAME / SPEED_TYPE / MAV_MISSION_RESULT values.
 MAV_CMD_NAV_WAYPOINT = 16
+MAV_CMD_NAV_LOITER_TIME = 19
+MAV_CMD_NAV_RETURN_TO_LAUNCH = 20
 MAV_CMD_DO_JUMP = 177
+MAV_CMD_DO_CHANGE_SPEED = 178
 MAV_FRAME_GLOBAL = 0
 MAV_FRAME_GLOBAL_RELATIVE_ALT = 3
+SPEED_TYPE_GROUNDSPEED = 1
 MAV_MISSION_TYPE_MISSION = 0
 MAV_MISSION_ACCEPTED = 0
 MAV_MISSION_OPERATION_CANCELLED = 15
@@ -53,6 +57,12 @@ ITEM_TIMEOUT_S = 0.25  # per-item timeout when we are the side requesting items
 MAX_RETRIES = 5
 # ArduPilot DO_JUMP: a repeat count of -1 repeats forever (used for looping missions).
 JUMP_FOREVER = -1
+# Item 1 is the first real item: ArduPilot keeps home as item 0 (mission-files.md).
+FIRST_ITEM = 1
+# ArduPilot keeps a waypoint's hold time in whole seconds (AP_Mission stores NAV_WAYPOINT
+# param1 in the 16-bit ``p1``), and Rover reads it as signed: ``(int16_t)cmd.p1 < 0 ? 0``
+# (Rover/mode_auto.cpp ``do_nav_wp``). A longer hold would silently become no hold at all.
+ROVER_MAX_HOLD_S = 32767
 
 
 def result_name(code: int | None) -> str:
@@ -91,16 +101,44 @@ def deg_to_e7(value: float) -> int:
     return int(round(value * 1e7))
 
 
-def build_mission(
-    home: tuple[float, float], waypoints: list[dict[str, Any]], *, loop: bool = False
-) -> list[MissionItem]:
-    """Mission items for ArduPilot: home as item 0, one NAV_WAYPOINT per waypoint.
+class MissionError(ValueError):
+    """Mission items the autopilot cannot take as they are."""
 
-    NAV_WAYPOINT params (common.xml): param1 = hold time in seconds, param2 = acceptance radius
-    in metres (0 = the autopilot's WP_RADIUS). ``loop`` appends a DO_JUMP back to item 1 that
-    repeats forever.
+
+def hold_seconds(hold_s: float) -> int:
+    """A hold time as ArduPilot keeps it: whole seconds, rounded up so no hold is lost."""
+    seconds = math.ceil(hold_s)
+    if seconds > ROVER_MAX_HOLD_S:
+        raise MissionError(
+            f"hold {hold_s:g} s is longer than ArduPilot Rover can hold at a waypoint "
+            f"({ROVER_MAX_HOLD_S} s)"
+        )
+    return max(0, seconds)
+
+
+def build_mission(
+    home: tuple[float, float], items: list[dict[str, Any]], *, end: str = "stop"
+) -> list[MissionItem]:
+    """Mission items for ArduPilot, in this order (``commands.catalog.mission_mavlink_item_count``
+    counts the same, and ``tests/edge_client/test_catalog_contract.py`` holds the two together):
+
+    - item 0: home (NAV_WAYPOINT, MAV_FRAME_GLOBAL); ArduPilot keeps its own home there.
+    - per mission item, when it has a ``speed_mps``: DO_CHANGE_SPEED *before* its waypoint, so
+      the boat drives the leg to that waypoint, and everything after, at that speed (param1
+      SPEED_TYPE_GROUNDSPEED, param2 m/s, param3 throttle 0 = unchanged by Rover). ArduPilot
+      runs a DO command as soon as the navigation command before it is done.
+    - per mission item: NAV_WAYPOINT, param1 = hold in whole seconds (:func:`hold_seconds`),
+      param2 = acceptance radius in metres (0 = the autopilot's WP_RADIUS; common.xml).
+      ArduPilot Rover keeps no per-waypoint radius (AP_Mission stores it for Plane only): it
+      uses WP_RADIUS and reads param2 back as 0.
+    - ``end == "loop"``: DO_JUMP to item 1 repeating forever (param1 target, param2 -1);
+      ``end == "return_home"``: NAV_RETURN_TO_LAUNCH; ``end == "stop"``: nothing.
+
+    Commands without a position carry zeros and MAV_FRAME_GLOBAL, which is how ArduPilot
+    hands them back on a download (AP_Mission ``mission_cmd_to_mavlink_int``).
+    Raises :class:`MissionError` for a hold longer than Rover can keep.
     """
-    items = [
+    mission = [
         MissionItem(
             seq=0,
             command=MAV_CMD_NAV_WAYPOINT,
@@ -109,30 +147,39 @@ def build_mission(
             frame=MAV_FRAME_GLOBAL,
         )
     ]
-    for wp in waypoints:
-        items.append(
-            MissionItem(
-                seq=len(items),
-                command=MAV_CMD_NAV_WAYPOINT,
-                x=deg_to_e7(float(wp["lat"])),
-                y=deg_to_e7(float(wp["lon"])),
-                param1=float(wp.get("hold_s") or 0.0),
-                param2=float(wp.get("radius_m") or 0.0),
+
+    def add(command: int, **fields: Any) -> None:
+        fields.setdefault("frame", MAV_FRAME_GLOBAL)
+        fields.setdefault("x", 0)
+        fields.setdefault("y", 0)
+        mission.append(MissionItem(seq=len(mission), command=command, **fields))
+
+    for i, item in enumerate(items):
+        if item.get("speed_mps") is not None:
+            add(
+                MAV_CMD_DO_CHANGE_SPEED,
+                param1=float(SPEED_TYPE_GROUNDSPEED),
+                param2=float(item["speed_mps"]),
             )
+        try:
+            hold = hold_seconds(float(item.get("hold_s") or 0.0))
+        except MissionError as exc:
+            raise MissionError(f"item {i}: {exc}") from None
+        add(
+            MAV_CMD_NAV_WAYPOINT,
+            x=deg_to_e7(float(item["lat"])),
+            y=deg_to_e7(float(item["lon"])),
+            param1=float(hold),
+            param2=float(item.get("radius_m") or 0.0),
+            frame=MAV_FRAME_GLOBAL_RELATIVE_ALT,
         )
-    if loop and waypoints:
-        items.append(
-            MissionItem(
-                seq=len(items),
-                command=MAV_CMD_DO_JUMP,
-                x=0,
-                y=0,
-                param1=1.0,
-                param2=float(JUMP_FOREVER),
-                frame=MAV_FRAME_GLOBAL,
-            )
-        )
-    return items
+    if end == "loop":
+        add(MAV_CMD_DO_JUMP, param1=float(FIRST_ITEM), param2=float(JUMP_FOREVER))
+    elif end == "return_home":
+        add(MAV_CMD_NAV_RETURN_TO_LAUNCH)
+    elif end != "stop":
+        raise MissionError(f"unknown mission end {end!r}")
+    return mission
 
 
 @dataclass(frozen=True)

@@ -12,9 +12,11 @@ from django.http import HttpRequest
 from django.urls import reverse
 from django.utils.html import format_html, format_html_join
 
+from commands.admin import CommandAdmin
 from commands.errors import CommandError
 from commands.models import Command, Source
-from commands.services import command_enqueue
+from commands.services import mission_problems, mission_send
+from sms.models import SmsMessage
 from telemetry.models import Fix
 from vessels.admin import MissionAdmin, VesselAdmin
 from vessels.models import Mission, Vessel
@@ -84,19 +86,17 @@ class FleetMissionAdmin(MissionAdmin):
     def has_send_permission(self, request: HttpRequest) -> bool:
         return request.user.has_perm("commands.add_command")
 
+    def mission_problems(self, mission: Mission) -> list[str]:
+        # The whole set of checks a send makes: the catalog's (vessel kind, autopilot size)
+        # and the route's; vessels.admin alone knows only the route's.
+        return mission_problems(mission=mission)
+
     @admin.action(description="Send selected missions to their vessel", permissions=["send"])
     def send_to_vessel(self, request: HttpRequest, queryset: QuerySet[Mission]) -> None:
         for mission in queryset:
-            if mission.vessel is None:
-                messages.error(request, f"{mission}: a template has no vessel; copy it to one.")
-                continue
             try:
-                command = command_enqueue(
-                    vessel=mission.vessel,
-                    kind="mission",
-                    params=mission.as_params(),
-                    source=Source.ADMIN,
-                    created_by=request.user.get_username(),
+                command = mission_send(
+                    mission=mission, source=Source.ADMIN, created_by=request.user.get_username()
                 )
             except CommandError as exc:
                 messages.error(request, f"{mission}: {exc.message}")
@@ -104,6 +104,34 @@ class FleetMissionAdmin(MissionAdmin):
             messages.success(request, f"{mission}: queued as command {command.uid}.")
 
 
-for model, model_admin in ((Vessel, FleetVesselAdmin), (Mission, FleetMissionAdmin)):
+class FleetCommandAdmin(CommandAdmin):
+    """A command's page names the SMS that created it (commands must not import sms)."""
+
+    readonly_fields = [*CommandAdmin.readonly_fields, "created_by_sms"]
+
+    @admin.display(description="created by SMS")
+    def created_by_sms(self, command: Command) -> str:
+        messages_in = SmsMessage.objects.filter(commands=command, direction="in").order_by("pk")
+        if not messages_in:
+            return "–"
+        return format_html_join(
+            ", ",
+            '<a href="{}">{}: {}</a>',
+            (
+                (
+                    reverse("admin:sms_smsmessage_change", args=[m.pk]),
+                    m.number_e164 or m.number,
+                    m.text[:80],
+                )
+                for m in messages_in
+            ),
+        )
+
+
+for model, model_admin in (
+    (Vessel, FleetVesselAdmin),
+    (Mission, FleetMissionAdmin),
+    (Command, FleetCommandAdmin),
+):
     admin.site.unregister(model)
     admin.site.register(model, model_admin)

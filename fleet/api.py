@@ -16,6 +16,7 @@ from commands.errors import CatalogError, CommandError, CommandNotFound, Transit
 from fleet.error_views import too_large_detail
 from telemetry.errors import TelemetryError
 from vessels.database import database_unavailable
+from vessels.errors import VesselsError
 
 logger = logging.getLogger(__name__)
 
@@ -45,7 +46,8 @@ def domain_to_api(exc: Exception) -> Exception:
     """The apps' own errors as DRF exceptions: the one place they become HTTP answers.
 
     Not found → 404, an illegal status transition → 409, any other command error → 400
-    naming the field. Catalog errors name a parameter, which the API body nests in `params`.
+    naming the field. Catalog errors name a parameter, which the API body nests in `params`;
+    a vessels error (a mission check, a mission file) lists every problem under its field.
     """
     if isinstance(exc, CommandNotFound):
         return exceptions.NotFound(exc.message)
@@ -62,6 +64,8 @@ def domain_to_api(exc: Exception) -> Exception:
     if database_unavailable(exc):
         logger.warning("database unavailable, answered 503: %s", exc)
         return DatabaseUnavailable()
+    if isinstance(exc, VesselsError):
+        return exceptions.ValidationError(exc.as_dict())
     if isinstance(exc, TelemetryError):
         return exceptions.ParseError(exc.message)
     if isinstance(exc, DjangoValidationError):

@@ -13,6 +13,7 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 import dj_database_url
+import phonenumbers
 from django.core.exceptions import ImproperlyConfigured
 
 from fleet.files import create_private, write_private
@@ -180,6 +181,7 @@ INSTALLED_APPS = [
     "vessels",
     "telemetry",
     "commands",
+    "sms",
     "fleet",
 ]
 
@@ -335,7 +337,20 @@ FIX_MAX_FUTURE_S = env_int("FIX_MAX_FUTURE_S", 300)
 # Writing last_used_at on every poll would serialise polls on SQLite's write lock.
 KEY_TOUCH_INTERVAL_S = env_int("KEY_TOUCH_INTERVAL_S", 60)
 COMMAND_DEFAULT_TTL_S = env_int("COMMAND_DEFAULT_TTL_S", 24 * 3600)
+# Mission checks (vessels.missions): a leg longer than this is refused before sending [50 km].
+MISSION_MAX_LEG_M = env_int("MISSION_MAX_LEG_M", 50_000)
 DATA_UPLOAD_MAX_MEMORY_SIZE = env_int("DATA_UPLOAD_MAX_MEMORY_SIZE", 10 * 1024 * 1024)
+
+# SMS control (sms app): national numbers ("0412 345 678") are read in this ISO 3166 region;
+# one number may send SMS_RATE_LIMIT messages per SMS_RATE_WINDOW_S (0 = no limit), past that
+# they are logged and not answered.
+SMS_DEFAULT_REGION = os.environ.get("SMS_DEFAULT_REGION", "").strip().upper() or "AU"
+if SMS_DEFAULT_REGION not in phonenumbers.SUPPORTED_REGIONS:
+    raise ValueError(
+        f"SMS_DEFAULT_REGION={SMS_DEFAULT_REGION!r} is not a region code (AU, GB, US…)"
+    )
+SMS_RATE_LIMIT = env_int("SMS_RATE_LIMIT", 10)
+SMS_RATE_WINDOW_S = env_int("SMS_RATE_WINDOW_S", 10 * 60)
 
 # The cache holds the API throttles' and the failed logins' counters. `locmem` counts in each
 # process alone, so under N gunicorn workers a limit is up to N times looser; `file` (in the

@@ -7,18 +7,29 @@ from __future__ import annotations
 
 from typing import Any
 
+from django import forms
 from django.contrib import admin, messages
+from django.core.exceptions import PermissionDenied
+from django.db import models
 from django.db.models import QuerySet
-from django.http import HttpRequest, HttpResponse
+from django.http import Http404, HttpRequest, HttpResponse
+from django.shortcuts import redirect
 from django.template.response import TemplateResponse
-from django.urls import reverse
+from django.urls import path, reverse
 from django.utils import timezone
-from django.utils.html import format_html
+from django.utils.html import format_html, format_html_join
 
+from vessels import missionfiles
+from vessels.errors import MissionFileError
+from vessels.missions import DEFAULT_CRUISE_SPEED_MPS, format_distance, format_duration
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
 from vessels.services import (
+    mission_export,
+    mission_import,
+    mission_problems,
     mission_save,
     mission_save_items,
+    mission_summary,
     vessel_key_issue,
     vessel_key_revoke,
     vessel_save,
@@ -84,7 +95,20 @@ class VesselAdmin(admin.ModelAdmin):
         "activity_links",
     ]
     fieldsets = [
-        (None, {"fields": ["name", "slug", "kind", "active", "telemetry_period_s", "notes"]}),
+        (
+            None,
+            {
+                "fields": [
+                    "name",
+                    "slug",
+                    "kind",
+                    "active",
+                    "telemetry_period_s",
+                    "cruise_speed_mps",
+                    "notes",
+                ]
+            },
+        ),
         (
             "State",
             {"fields": ["status_badge", "last_seen_at", "last_fix_at", "position", "battery"]},
@@ -203,20 +227,106 @@ class VesselKeyAdmin(admin.ModelAdmin):
 
 
 class MissionItemInline(admin.TabularInline):
+    # A plain tabular inline: the mission planner map (fleet) edits these rows from script.
     model = MissionItem
     extra = 3
-    fields = ["seq", "lat", "lon", "hold_s", "radius_m"]
+    fields = ["seq", "lat", "lon", "hold_s", "radius_m", "speed_mps"]
+    # Narrow number boxes: the admin's default width puts the last columns off screen.
+    formfield_overrides = {
+        models.FloatField: {
+            "widget": forms.NumberInput(attrs={"step": "any", "style": "width:8em"})
+        },
+        models.PositiveIntegerField: {"widget": forms.NumberInput(attrs={"style": "width:4em"})},
+    }
+
+
+class MissionImportForm(forms.Form):
+    file = forms.FileField(help_text="QGroundControl .plan, Mission Planner .waypoints or GeoJSON.")
+    vessel = forms.ModelChoiceField(
+        Vessel.objects.all(), required=False, help_text="Empty: a template any vessel can run."
+    )
+    name = forms.CharField(max_length=100, required=False, help_text="Empty: the file's own name.")
+    skip_unsupported = forms.BooleanField(
+        required=False,
+        help_text="Import the rest when the file holds items a mission cannot (each one is "
+        "listed); otherwise such a file is refused.",
+    )
 
 
 @admin.register(Mission)
 class MissionAdmin(admin.ModelAdmin):
-    list_display = ["name", "vessel", "item_count", "loop", "updated_at"]
-    list_filter = ["vessel"]
+    list_display = ["name", "vessel", "item_count", "end", "updated_at"]
+    list_filter = ["vessel", "end"]
     inlines = [MissionItemInline]
+    fields = ["name", "vessel", "end", "home_lat", "home_lon", "notes", "route", "export_links"]
+    readonly_fields = ["route", "export_links"]
+
+    def get_urls(self) -> list[Any]:
+        view = self.admin_site.admin_view
+        return [
+            path("import/", view(self.import_view), name="vessels_mission_import"),
+            path(
+                "<int:pk>/export/<str:format>/",
+                view(self.export_view),
+                name="vessels_mission_export",
+            ),
+            *super().get_urls(),
+        ]
 
     @admin.display(description="waypoints")
     def item_count(self, mission: Mission) -> int:
         return mission.items.count()
+
+    @admin.display(description="route")
+    def route(self, mission: Mission) -> str:
+        if mission.pk is None:
+            return "–"
+        plan = mission_summary(mission=mission)
+        speed = mission.vessel.cruise_speed_mps if mission.vessel else DEFAULT_CRUISE_SPEED_MPS
+        rows = format_html_join(
+            "",
+            "<tr><td>{} → {}</td><td>{}</td><td>{}°</td><td>{}</td><td>{}</td></tr>",
+            (
+                (
+                    leg.start,
+                    leg.to,
+                    format_distance(leg.distance_m),
+                    f"{leg.bearing_deg:.0f}",
+                    f"{leg.speed_mps:g} m/s",
+                    format_duration(leg.time_s),
+                )
+                for leg in plan.legs
+            ),
+        )
+        return format_html(
+            '<table id="mission-route"><tr><th>leg</th><th>distance</th><th>bearing</th>'
+            "<th>speed</th><th>time</th></tr>{}</table>"
+            "<p><b>Total: {}, {}</b> ({} of holds; at a cruise speed of {} m/s unless an item "
+            "sets its own{})</p>",
+            rows,
+            format_distance(plan.total_m),
+            format_duration(plan.total_s),
+            format_duration(plan.hold_s),
+            f"{speed:g}",
+            "; one lap" if mission.end == "loop" else "",
+        )
+
+    @admin.display(description="export")
+    def export_links(self, mission: Mission) -> str:
+        if mission.pk is None:
+            return "–"
+        return format_html_join(
+            " ",
+            '<a class="button" href="{}" download>{}</a>',
+            (
+                (reverse("admin:vessels_mission_export", args=[mission.pk, fmt]), label)
+                for fmt, label in EXPORT_LABELS.items()
+            ),
+        )
+
+    def mission_problems(self, mission: Mission) -> list[str]:
+        """What would stop this mission being sent; fleet.admin adds the catalog's checks."""
+        return mission_problems(mission=mission)
 
     def save_model(self, request: HttpRequest, obj: Mission, form: Any, change: bool) -> None:
         mission_save(mission=obj)
@@ -230,9 +340,61 @@ class MissionAdmin(admin.ModelAdmin):
                     items.append(row)
         items.sort(key=lambda row: row["seq"])
         mission_save_items(mission=form.instance, items=items)
+        for problem in self.mission_problems(form.instance):
+            messages.warning(request, f"Saved, but it cannot be sent yet: {problem}.")
 
     def construct_change_message(
         self, request: HttpRequest, form: Any, formsets: Any, add: bool
     ) -> Any:
         # The item formsets were not saved as formsets (mission_save_items wrote the rows).
         return super().construct_change_message(request, form, [], add)
+
+    def import_view(self, request: HttpRequest) -> HttpResponse:
+        if not self.has_add_permission(request):
+            raise PermissionDenied
+        form = MissionImportForm(request.POST or None, request.FILES or None)
+        if request.method == "POST" and form.is_valid():
+            upload = form.cleaned_data["file"]
+            try:
+                missionfiles.check_size(upload.size)
+                mission, skipped = mission_import(
+                    content=upload.read(),
+                    filename=upload.name,
+                    vessel=form.cleaned_data["vessel"],
+                    name=form.cleaned_data["name"],
+                    skip_unsupported=form.cleaned_data["skip_unsupported"],
+                )
+            except MissionFileError as exc:
+                for problem in exc.problems:
+                    form.add_error("file", problem)
+            else:
+                count = mission.items.count()
+                messages.success(request, f"Imported {mission.name}: {count} waypoint(s).")
+                for item in skipped:
+                    messages.warning(request, f"Skipped {item}")
+                return redirect("admin:vessels_mission_change", mission.pk)
+        context = {
+            **self.admin_site.each_context(request),
+            "opts": self.model._meta,
+            "title": "Import a mission file",
+            "form": form,
+        }
+        return TemplateResponse(request, "admin/vessels/mission/import.html", context)
+
+    def export_view(self, request: HttpRequest, pk: int, format: str) -> HttpResponse:
+        mission = self.get_object(request, str(pk))
+        if mission is None or not self.has_view_permission(request, mission):
+            raise Http404
+        if format not in EXPORT_LABELS:
+            raise Http404
+        content, content_type, filename = mission_export(mission=mission, format=format)
+        response = HttpResponse(content, content_type=content_type)
+        response["Content-Disposition"] = f'attachment; filename="{filename}"'
+        return response
+
+
+EXPORT_LABELS = {
+    "plan": "QGroundControl .plan",
+    "waypoints": "Mission Planner .waypoints",
+    "geojson": "GeoJSON",
+}

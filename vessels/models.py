@@ -3,11 +3,20 @@ from __future__ import annotations
 import datetime as dt
 from typing import Any
 
+from django.core.exceptions import ValidationError
 from django.core.validators import MaxValueValidator, MinValueValidator
 from django.db import models
 from django.db.models import Q
 
 from vessels.kinds import MAVLINK, WAVE_GLIDER
+from vessels.missions import (
+    DEFAULT_CRUISE_SPEED_MPS,
+    HOLD_MAX_S,
+    RADIUS_MAX_M,
+    RADIUS_MIN_M,
+    SPEED_MAX_MPS,
+    SPEED_MIN_MPS,
+)
 
 # A vessel silent for this many telemetry periods is overdue (DESIGN §3).
 OVERDUE_PERIODS = 3
@@ -28,6 +37,12 @@ class Vessel(models.Model):
         default=60,
         validators=[MinValueValidator(1), MaxValueValidator(7 * 86400)],
         help_text="Expected seconds between reports.",
+    )
+    cruise_speed_mps = models.FloatField(
+        "cruise speed (m/s)",
+        default=DEFAULT_CRUISE_SPEED_MPS,
+        validators=[MinValueValidator(SPEED_MIN_MPS), MaxValueValidator(SPEED_MAX_MPS)],
+        help_text="Usual speed through the water; mission times are estimated with it.",
     )
     # Denormalised newest fix for the fleet list and map: {time, lat, lon, heading_deg, ...}.
     last_fix = models.JSONField(null=True, blank=True, editable=False)
@@ -87,6 +102,17 @@ class VesselKey(models.Model):
         return self.revoked_at is None
 
 
+class MissionEnd(models.TextChoices):
+    # ArduPilot: nothing after the last item, a DO_JUMP to item 1, a NAV_RETURN_TO_LAUNCH.
+    STOP = "stop", "Stop at the last waypoint"
+    LOOP = "loop", "Loop back to the first waypoint"
+    RETURN_HOME = "return_home", "Return home"
+
+
+_LAT = [MinValueValidator(-90), MaxValueValidator(90)]
+_LON = [MinValueValidator(-180), MaxValueValidator(180)]
+
+
 class Mission(models.Model):
     name = models.CharField(max_length=100)
     vessel = models.ForeignKey(
@@ -97,7 +123,12 @@ class Mission(models.Model):
         related_name="missions",
         help_text="Leave empty for a template any vessel can run.",
     )
-    loop = models.BooleanField(default=False)
+    end = models.CharField(max_length=12, choices=MissionEnd.choices, default=MissionEnd.STOP)
+    # The planned home (QGC's plannedHomePosition, a .waypoints file's row 0): where the boat
+    # is launched, for the return leg and for export. Not a waypoint; the boat's real home is
+    # where the autopilot sets it.
+    home_lat = models.FloatField("home latitude", null=True, blank=True, validators=_LAT)
+    home_lon = models.FloatField("home longitude", null=True, blank=True, validators=_LON)
     notes = models.TextField(blank=True)
     created_at = models.DateTimeField(auto_now_add=True)
     updated_at = models.DateTimeField(auto_now=True)
@@ -108,25 +139,47 @@ class Mission(models.Model):
     def __str__(self) -> str:
         return self.name
 
+    def clean(self) -> None:
+        if (self.home_lat is None) != (self.home_lon is None):
+            raise ValidationError("Give both home latitude and longitude, or neither.")
+
+    @property
+    def home(self) -> tuple[float, float] | None:
+        if self.home_lat is None or self.home_lon is None:
+            return None
+        return self.home_lat, self.home_lon
+
+    def item_dicts(self) -> list[dict[str, Any]]:
+        return [item.as_dict() for item in self.items.all()]
+
     def as_params(self) -> dict[str, Any]:
-        """The `mission` command params for this mission (validated by the catalog on enqueue)."""
-        return {
-            "mission_id": self.pk,
-            "loop": self.loop,
-            "items": [
-                {"lat": i.lat, "lon": i.lon, "hold_s": i.hold_s, "radius_m": i.radius_m}
-                for i in self.items.all()
-            ],
-        }
+        """The `mission` command params for this mission (validated by the catalog on enqueue,
+        which also fills in the older ``loop`` flag from ``end``)."""
+        return {"mission_id": self.pk, "end": self.end, "items": self.item_dicts()}
 
 
 class MissionItem(models.Model):
     mission = models.ForeignKey(Mission, on_delete=models.CASCADE, related_name="items")
     seq = models.PositiveIntegerField()
-    lat = models.FloatField(validators=[MinValueValidator(-90), MaxValueValidator(90)])
-    lon = models.FloatField(validators=[MinValueValidator(-180), MaxValueValidator(180)])
-    hold_s = models.FloatField(default=0, validators=[MinValueValidator(0)])
-    radius_m = models.FloatField(null=True, blank=True, validators=[MinValueValidator(0.5)])
+    lat = models.FloatField(validators=_LAT)
+    lon = models.FloatField(validators=_LON)
+    hold_s = models.FloatField(
+        "hold (s)", default=0, validators=[MinValueValidator(0), MaxValueValidator(HOLD_MAX_S)]
+    )
+    radius_m = models.FloatField(
+        "radius (m)",
+        null=True,
+        blank=True,
+        validators=[MinValueValidator(RADIUS_MIN_M), MaxValueValidator(RADIUS_MAX_M)],
+        help_text="Acceptance radius; empty: the autopilot's own (WP_RADIUS).",
+    )
+    speed_mps = models.FloatField(
+        "speed (m/s)",
+        null=True,
+        blank=True,
+        validators=[MinValueValidator(SPEED_MIN_MPS), MaxValueValidator(SPEED_MAX_MPS)],
+        help_text="Speed from this waypoint on (the leg to it included); empty: unchanged.",
+    )
 
     class Meta:
         ordering = ["mission", "seq"]
@@ -140,3 +193,12 @@ class MissionItem(models.Model):
 
     def __str__(self) -> str:
         return f"{self.seq}: {self.lat:.5f}, {self.lon:.5f}"
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "lat": self.lat,
+            "lon": self.lon,
+            "hold_s": self.hold_s,
+            "radius_m": self.radius_m,
+            "speed_mps": self.speed_mps,
+        }

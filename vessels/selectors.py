@@ -8,7 +8,7 @@ from django.db import connection
 from django.db.models import QuerySet
 from django.shortcuts import get_object_or_404
 
-from vessels.models import Vessel, VesselKey
+from vessels.models import Mission, Vessel, VesselKey
 
 
 def vessel_list() -> QuerySet[Vessel]:
@@ -77,3 +77,14 @@ def vessel_key_by_hash(key_hash: str) -> VesselKey | None:
     )
     key.vessel = vessel
     return key
+
+
+def missions_visible_to(user: Any) -> QuerySet[Mission]:
+    """The missions ``user`` may see: templates, and missions of vessels they may view.
+
+    A mission names its vessel and traces its route: an operator without the right to see
+    vessels sees only the templates."""
+    missions = Mission.objects.select_related("vessel").prefetch_related("items")
+    if not user.has_perm("vessels.view_vessel"):
+        missions = missions.filter(vessel__isnull=True)
+    return missions.order_by("name", "pk")

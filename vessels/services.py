@@ -11,7 +11,9 @@ from django.conf import settings
 from django.db import connection, transaction
 from django.db.models import F
 from django.utils import timezone
+from django.utils.text import slugify
 
+from vessels import missionfiles, missions
 from vessels.keys import PREFIX_SHOWN, generate_key, hash_key
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
 
@@ -133,7 +135,8 @@ def vessel_bump_commands_version(*, vessel_id: int) -> None:
 
 @transaction.atomic
 def mission_save_items(*, mission: Mission, items: Iterable[Mapping[str, Any]]) -> Mission:
-    """Replace a mission's items with ``items`` (dicts of lat, lon, hold_s, radius_m), in order."""
+    """Replace a mission's items with ``items`` (dicts of lat, lon and optional hold_s,
+    radius_m, speed_mps), numbered 1, 2, … in the order given."""
     mission.items.all().delete()
     for seq, item in enumerate(items, start=1):
         row = MissionItem(
@@ -143,9 +146,11 @@ def mission_save_items(*, mission: Mission, items: Iterable[Mapping[str, Any]]) 
             lon=item["lon"],
             hold_s=item.get("hold_s") or 0,
             radius_m=item.get("radius_m"),
+            speed_mps=item.get("speed_mps"),
         )
         row.full_clean()
         row.save()
+    Mission.objects.filter(pk=mission.pk).update(updated_at=timezone.now())
     return mission
 
 
@@ -160,3 +165,92 @@ def mission_save(*, mission: Mission) -> Mission:
     mission.full_clean()
     mission.save()
     return mission
+
+
+def mission_delete(*, mission: Mission) -> None:
+    """Delete a mission and its items; commands already sent keep their own copy of them."""
+    mission.delete()
+
+
+def mission_problems(*, mission: Mission) -> list[str]:
+    """The route checks this mission fails (vessels.missions.problems), [] when none.
+
+    The size the autopilot can store is the command catalog's rule, checked where commands
+    are validated (commands.services.command_validate)."""
+    return missions.problems(
+        mission.item_dicts(), max_leg_m=settings.MISSION_MAX_LEG_M, end=mission.end
+    )
+
+
+def mission_summary(*, mission: Mission, vessel: Vessel | None = None) -> missions.Summary:
+    """Legs, distances and times of a mission at ``vessel``'s cruise speed (default: the
+    mission's own vessel's; a template: the default cruise speed)."""
+    vessel = vessel or mission.vessel
+    speed = vessel.cruise_speed_mps if vessel else missions.DEFAULT_CRUISE_SPEED_MPS
+    return missions.summary(
+        mission.item_dicts(), cruise_speed_mps=speed, end=mission.end, home=mission.home
+    )
+
+
+@transaction.atomic
+def mission_import(
+    *,
+    content: bytes,
+    filename: str = "",
+    format: str | None = None,
+    vessel: Vessel | None = None,
+    name: str = "",
+    skip_unsupported: bool = False,
+) -> tuple[Mission, list[str]]:
+    """Create a mission from a `.plan`, `.waypoints` or GeoJSON file.
+
+    Returns the mission and the items skipped (in words; only with ``skip_unsupported``).
+    Raises MissionFileError naming every item the file holds that a mission cannot.
+    """
+    parsed = missionfiles.load(
+        content, format=format, filename=filename, skip_unsupported=skip_unsupported, name=name
+    )
+    home = parsed.home or (None, None)
+    mission = Mission(
+        name=(parsed.name or _stem(filename) or "Imported mission")[:_NAME_MAX],
+        vessel=vessel,
+        end=parsed.end,
+        home_lat=home[0],
+        home_lon=home[1],
+        notes=_import_note(filename, parsed.skipped),
+    )
+    mission_save(mission=mission)
+    mission_save_items(mission=mission, items=[item.as_dict() for item in parsed.items])
+    return mission, list(parsed.skipped)
+
+
+_NAME_MAX = Mission._meta.get_field("name").max_length
+
+
+def _stem(filename: str) -> str:
+    base = filename.replace("\\", "/").rsplit("/", 1)[-1]
+    return base.rsplit(".", 1)[0] if "." in base else base
+
+
+def _import_note(filename: str, skipped: Iterable[str]) -> str:
+    lines = [f"Imported from {filename or 'a file'}."]
+    lines += [f"Skipped {item}" for item in skipped]
+    return "\n".join(lines)
+
+
+def mission_export(*, mission: Mission, format: str) -> tuple[str, str, str]:
+    """The mission as a file: (content, content type, file name). Raises MissionFileError
+    for an unknown format."""
+    vessel = mission.vessel
+    exported = missionfiles.dump(
+        missionfiles.MissionFile(
+            items=tuple(missionfiles.Item(**item) for item in mission.item_dicts()),
+            end=mission.end,
+            home=mission.home,
+            name=mission.name,
+        ),
+        format,
+        cruise_speed_mps=vessel.cruise_speed_mps if vessel else missions.DEFAULT_CRUISE_SPEED_MPS,
+    )
+    filename = f"{slugify(mission.name) or 'mission'}.{exported.extension}"
+    return exported.content, exported.content_type, filename

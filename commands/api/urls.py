@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from django.urls import path
 
-from commands.api import boat, operator
+from commands.api import boat, missions, operator
 from commands.api.legacy import LegacyCommandsView
 
 urlpatterns = [
@@ -17,6 +17,7 @@ urlpatterns = [
         name="vessel-commands",
     ),
     path("commands/<str:uid>/cancel/", operator.CommandCancelView.as_view(), name="command-cancel"),
+    path("missions/<int:pk>/send/", missions.MissionSendView.as_view(), name="mission-send"),
 ]
 
 legacy_urlpatterns = [

@@ -30,7 +30,19 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--lat", type=float, default=-31.98, help="start latitude")
     p.add_argument("--lon", type=float, default=115.82, help="start longitude")
-    p.add_argument("--speed", type=float, default=2.0, help="speed in m/s when moving")
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=2.0,
+        help="cruise speed in m/s (Rover's WP_SPEED; a mission's DO_CHANGE_SPEED overrides it "
+        "until the next mode change)",
+    )
+    p.add_argument(
+        "--wp-radius",
+        type=float,
+        default=2.0,
+        help="Rover's WP_RADIUS in metres: a mission waypoint counts as reached this close",
+    )
     p.add_argument("--rate", type=float, default=4.0, help="GLOBAL_POSITION_INT rate in Hz")
     p.add_argument(
         "--prearm-delay",
@@ -77,7 +89,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO)
     sim = RoverSim(
         args.listen or ["udpin:127.0.0.1:14550"],
-        lat=args.lat, lon=args.lon, speed_mps=args.speed, rate_hz=args.rate,
+        lat=args.lat, lon=args.lon, speed_mps=args.speed, wp_radius_m=args.wp_radius,
+        rate_hz=args.rate,
         prearm_delay_s=args.prearm_delay, position_delay_s=args.position_delay,
         request_int=args.request_int, drop=args.drop,
         dup=args.dup, refuse_modes=tuple(args.refuse_mode), reject_mission=args.reject_mission,
@@ -94,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
             next_status += args.status_every
             print(
                 f"sim: {sim.lat:.6f} {sim.lon:.6f} {sim.mode_name} "
-                f"{'armed' if sim.armed else 'disarmed'} item {sim.current}",
+                f"{'armed' if sim.armed else 'disarmed'} item {sim.current} "
+                f"{sim.speed:g} m/s",
                 flush=True,
             )
         stop.wait(0.005)

@@ -21,13 +21,25 @@ mission-files.md, mavlink.io common.xml), not like a physics model:
   ``ekf_position_ok()``; disarmed, Rover skips the check): STATUSTEXT "Flight mode change failed"
   and COMMAND_ACK FAILED. Readiness shows in EKF_STATUS_REPORT flags (CONST_POS_MODE, then
   POS_HORIZ_ABS), GPS_RAW_INT fix_type and SYS_STATUS health bits (GPS, AHRS).
-- Motion at ``speed_mps`` toward the GUIDED target, along the mission in AUTO (NAV_WAYPOINT with
-  hold time and acceptance radius, DO_JUMP with repeat counts, MISSION_ITEM_REACHED, HOLD at the
-  end), home in RTL/SMART_RTL ("Reached destination" on arrival, then it stays in the mode and
-  holds there, as a boat loiters); only when armed.
+- Motion at ``speed_mps`` (Rover's WP_SPEED) toward the GUIDED target, home in RTL/SMART_RTL
+  ("Reached destination" on arrival, then it stays in the mode and holds there, as a boat
+  loiters), and along the mission in AUTO as Rover/mode_auto.cpp and AP_Mission run it:
+  NAV_WAYPOINT and NAV_LOITER_TIME reached within ``wp_radius_m`` (WP_RADIUS: Rover keeps no
+  per-waypoint radius), then held there param1 whole seconds with the item still current;
+  NAV_RETURN_TO_LAUNCH drives home inside AUTO (the mode stays AUTO, "Reached destination");
+  DO commands run at once when the navigation command before them is done, DO_CHANGE_SPEED
+  setting the speed from then on (param2 m/s; below 0.05 m/s, so -1 or 0, it is ignored, as
+  AR_WPNav::set_speed_max refuses it; entering a mode, RTL included, goes back to WP_SPEED);
+  DO_JUMP to its target param2 more times (-1 forever); MISSION_ITEM_REACHED when an item is
+  done (after its hold), MISSION_CURRENT carrying the current navigation item; at the end
+  "Mission Complete" and the boat stops, still in AUTO (MIS_DONE_BEHAVE 0). Only when armed.
+  ``events`` records arrivals, items done and speed changes on the simulator's own clock.
+- Missions are kept as AP_Mission keeps them (``stored``): a download hands back what Rover
+  would, not simply what was sent.
 - Fault injection: ``drop`` / ``dup`` probabilities for messages (drop applies both ways),
   ``refuse_modes`` (COMMAND_ACK DENIED), ``reject_mission`` (MISSION_ACK with that code after
-  the last item), ``muted`` (stops talking, as a silent autopilot).
+  the last item), ``lose`` (message names never sent, e.g. MISSION_ITEM_REACHED), ``muted``
+  (stops talking, as a silent autopilot).
 """
 
 from __future__ import annotations
@@ -37,6 +49,7 @@ import os
 import random
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
@@ -57,8 +70,16 @@ MODE_NAMES = {v: k for k, v in MODES.items()}
 UPLOAD_RETRY_S = 0.5
 UPLOAD_GIVE_UP_S = 8.0
 GLOBAL_FRAMES = {0, 3, 5, 6, 10, 11}  # MAV_FRAME_GLOBAL*, incl. the deprecated _INT variants
-NAV_WAYPOINT, NAV_RTL, DO_JUMP = 16, 20, 177
+NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL, DO_JUMP, DO_CHANGE_SPEED = 16, 19, 20, 177, 178
+NAV_COMMANDS = {NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL}  # the ones this Rover drives to
+LOCATION_COMMANDS = {NAV_WAYPOINT, NAV_LOITER_TIME}  # AP_Mission keeps their x, y, z
+FIRST_ITEM = 1  # AP_MISSION_FIRST_REAL_COMMAND: item 0 is home, never run
+MAX_JUMPS_FOLLOWED = 64  # AP_Mission::get_next_cmd gives up after this many DO_JUMPs in a row
+SPEED_MIN_MPS = 0.05  # AR_WPNAV_SPEED_MIN: DO_CHANGE_SPEED below this changes nothing
 DEFAULT_WP_RADIUS_M = 2.0  # ArduPilot Rover WP_RADIUS default
+MAX_MISSION_ITEMS = 724  # AP_Mission on a 16 KiB storage board, as commands/catalog.py says
+# MISSION_CURRENT.mission_state (common.xml MISSION_STATE)
+NO_MISSION, NOT_STARTED, ACTIVE, COMPLETE = 1, 2, 3, 5
 # Modes whose Mode::requires_position() is true in Rover (mode.h).
 POSITION_MODES = {"AUTO", "GUIDED", "LOITER", "FOLLOW", "RTL", "SMART_RTL"}
 # EKF_STATUS_REPORT flags (ardupilotmega.xml EKF_STATUS_FLAGS) before and after the EKF has a
@@ -89,6 +110,52 @@ class Item:
     z: float
 
 
+def stored(item: Item) -> Item:
+    """The item as ArduPilot Rover keeps it and hands it back on a download.
+
+    AP_Mission (``mavlink_int_to_mission_cmd`` / ``mission_cmd_to_mavlink_int``) keeps only
+    some fields of each command, in small integers: NAV_WAYPOINT its hold in whole seconds
+    (uint16 ``p1``; the acceptance radius is kept for Plane only), NAV_LOITER_TIME the same
+    plus a direction (param3 -1 or 1) and cross-track flag (param4 0 or 1), DO_CHANGE_SPEED
+    speed type and throttle as uint8 and the speed as a float, DO_JUMP target uint16 and
+    repeat count int16, NAV_RETURN_TO_LAUNCH nothing. Commands without a position come back
+    with zeros in MAV_FRAME_GLOBAL; every item with autocontinue 1. Commands this simulator
+    does not know are kept as they came.
+    """
+    c = item.command
+    if c not in NAV_COMMANDS | {DO_JUMP, DO_CHANGE_SPEED}:
+        return item
+    p = [0.0, 0.0, 0.0, 0.0]
+    if c in LOCATION_COMMANDS:
+        p[0] = float(int(max(0.0, item.param1)) & 0xFFFF)
+    if c == NAV_LOITER_TIME:
+        p[2] = -1.0 if item.param3 < 0 else 1.0
+        p[3] = 1.0 if item.param4 > 0 else 0.0
+    if c == DO_CHANGE_SPEED:
+        p[:3] = [float(int(item.param1) & 0xFF), item.param2, float(int(item.param3) & 0xFF)]
+    if c == DO_JUMP:
+        times = int(item.param2)
+        p[:2] = [float(int(item.param1) & 0xFFFF), float((times + 0x8000) % 0x10000 - 0x8000)]
+    if c in LOCATION_COMMANDS:
+        # Relative-altitude frames come back as MAV_FRAME_GLOBAL_RELATIVE_ALT, terrain ones as
+        # MAV_FRAME_GLOBAL_TERRAIN_ALT, the rest as MAV_FRAME_GLOBAL; altitude in whole cm.
+        frame = {3: 3, 6: 3, 10: 10, 11: 10}.get(item.frame, 0)
+        x, y, z = item.x, item.y, round(item.z * 100) / 100
+    else:
+        frame, x, y, z = 0, 0, 0, 0.0
+    return Item(item.seq, frame, c, 0, 1, *p, x, y, z)
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something the mission did, at ``t`` on the simulator's clock (time.monotonic)."""
+
+    t: float
+    kind: str  # "arrived", "reached" (MISSION_ITEM_REACHED sent), "speed", "complete"
+    seq: int
+    value: float = 0.0
+
+
 class RoverSim:
     def __init__(
         self,
@@ -105,7 +172,9 @@ class RoverSim:
         dup: float = 0.0,
         refuse_modes: tuple[str, ...] = (),
         reject_mission: int | None = None,
-        max_items: int = 700,
+        lose: tuple[str, ...] = (),
+        max_items: int = MAX_MISSION_ITEMS,
+        wp_radius_m: float = DEFAULT_WP_RADIUS_M,
         seed: int | None = None,
         system: int = 1,
     ) -> None:
@@ -117,22 +186,27 @@ class RoverSim:
         ]
         self.lat, self.lon = lat, lon
         self.home = (lat, lon)
-        self.speed = speed_mps
+        self.cruise_speed = speed_mps  # WP_SPEED: what every mode starts with
+        self.speed = speed_mps  # now, after any DO_CHANGE_SPEED
+        self.wp_radius = wp_radius_m
         self.heading = 0.0
         self.vn = self.ve = 0.0  # m/s north/east
         self.mode = MODES["HOLD"]
         self.armed = False
         self.target: tuple[float, float] | None = None
         self.mission: list[Item] = []
-        self.current = 0
-        self.jumps: dict[int, int] = {}
-        self.reached_sent = -1
-        self.hold_until: float | None = None
+        self.current = 0  # the current navigation item (MISSION_CURRENT)
+        self.nav_loaded = False  # False: find the navigation item from ``current`` on first
+        self.arrived_at: float | None = None  # when the current item was reached (its hold)
+        self.complete = False
+        self.jumps: dict[int, int] = {}  # DO_JUMP seq → times followed
+        self.events: deque[Event] = deque(maxlen=1000)
         self.battery_v = 12.6
         self.request_int = request_int
         self.drop, self.dup = drop, dup
         self.refuse_modes = {m.upper() for m in refuse_modes}
         self.reject_mission = reject_mission
+        self.lose = {name.upper() for name in lose}  # message names never sent
         self.max_items = max_items
         self.prearm_delay_s = prearm_delay_s
         self.position_delay_s = position_delay_s  # a test may lower it to make the EKF ready
@@ -171,9 +245,11 @@ class RoverSim:
         for conn in self.conns:
             conn.close()
 
-    def step(self) -> None:
+    def step(self, now: float | None = None) -> None:
+        """One turn: read, move, stream. ``now`` (time.monotonic scale) lets a test drive the
+        simulator on a clock of its own, faster than real time."""
         with self._lock:
-            now = time.monotonic()
+            now = time.monotonic() if now is None else now
             for conn in self.conns:
                 while (msg := conn.recv_msg()) is not None:
                     self._receive(conn, msg, now)
@@ -205,7 +281,7 @@ class RoverSim:
             return
         for c in targets:
             msg = getattr(c.mav, f"{name}_encode")(*args, **kwargs)
-            if self.rng.random() < self.drop:
+            if self.rng.random() < self.drop or name.upper() in self.lose:
                 self.counts["dropped"] += 1
                 continue
             copies = 2 if self.rng.random() < self.dup else 1
@@ -296,11 +372,23 @@ class RoverSim:
                 0,
             )
         if self._due(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, now):
-            self._emit(None, "mission_current", self.current, max(0, len(self.mission) - 1))
+            self._send_current()
         if self._due(mavlink.MAVLINK_MSG_ID_SYSTEM_TIME, now):
             self._emit(None, "system_time", int(time.time() * 1e6), self.boot_ms())
         if self._due(mavlink.MAVLINK_MSG_ID_SCALED_PRESSURE, now):
             self._emit(None, "scaled_pressure", self.boot_ms(), 1013.25, 0.0, 1850)
+
+    def _send_current(self, seq: int | None = None) -> None:
+        """MISSION_CURRENT: the current navigation item, the item count (home excluded) and the
+        mission state, as ArduPilot 4.4+ fills them in."""
+        if len(self.mission) <= 1:
+            state = NO_MISSION
+        elif self.complete:
+            state = COMPLETE
+        else:
+            state = ACTIVE if self.mode_name == "AUTO" and self.nav_loaded else NOT_STARTED
+        seq = self.current if seq is None else seq
+        self._emit(None, "mission_current", seq, max(0, len(self.mission) - 1), state)
 
     def _send_home(self, conn: Any) -> None:
         self._emit(
@@ -354,52 +442,80 @@ class RoverSim:
             self._auto(dt, now)
         elif name in ("RTL", "SMART_RTL"):
             left = self._drive_to(*self.home, dt)
-            if left <= DEFAULT_WP_RADIUS_M and not self.rtl_arrived:
+            if left <= self.wp_radius and not self.rtl_arrived:
                 self.rtl_arrived = True  # Rover/mode_rtl.cpp: once, then a boat loiters there
                 self.statustext(None, "Reached destination", 6)
         else:
             self.vn = self.ve = 0.0
 
     def _auto(self, dt: float, now: float) -> None:
-        for _ in range(len(self.mission) + 1):  # follow DO_JUMPs without looping forever
-            if self.current >= len(self.mission):
-                self.mode = MODES["HOLD"]  # Rover's default behaviour at the end of a mission
-                self.statustext(None, "Mission Complete", 6)
-                self.vn = self.ve = 0.0
+        """Rover's ModeAuto::update with AP_Mission::update, for the commands Shoreside uses."""
+        if self.complete or (not self.nav_loaded and not self._advance(self.current, now)):
+            self.vn = self.ve = 0.0  # MIS_DONE_BEHAVE 0: stop, still in AUTO
+            return
+        item = self.mission[self.current]
+        rtl = item.command == NAV_RTL
+        hold = 0 if rtl else int(item.param1)  # whole seconds, as AP_Mission keeps it
+        if self.arrived_at is None:
+            left = self._drive_to(*(self.home if rtl else (item.x / 1e7, item.y / 1e7)), dt)
+            if left > self.wp_radius:
                 return
-            item = self.mission[self.current]
+            self.arrived_at = now
+            self.events.append(Event(now, "arrived", item.seq))
+            if rtl:
+                text = "Reached destination"  # mode_rtl.cpp, run as Auto's RTL sub-mode
+            elif hold:
+                text = f"Reached waypoint #{item.seq}. Loiter for {hold} seconds"
+            else:
+                text = f"Reached waypoint #{item.seq}"
+            self.statustext(None, text, 6)
+        self.vn = self.ve = 0.0  # a boat loiters at the waypoint while it holds
+        if now - self.arrived_at < hold:
+            return
+        if item.command == NAV_LOITER_TIME:
+            self.statustext(None, "Finished active loiter", 4)
+        self._item_done(item, now)
+        self.nav_loaded = False
+        self._advance(item.seq + 1, now)
+
+    def _item_done(self, item: Item, now: float) -> None:
+        # Rover's verify_command_callback: MISSION_ITEM_REACHED once an item is *done*.
+        self._emit(None, "mission_item_reached", item.seq)
+        self.events.append(Event(now, "reached", item.seq))
+
+    def _advance(self, start: int, now: float) -> bool:
+        """AP_Mission advance_current_nav_cmd: follow DO_JUMPs, run the DO commands met on the
+        way (each verified at once), stop at the next navigation item; none left: complete."""
+        index, followed = max(start, FIRST_ITEM), 0
+        while index < len(self.mission):
+            item = self.mission[index]
             if item.command == DO_JUMP:
+                target, times = int(item.param1), int(item.param2)
+                followed += 1
+                if followed > MAX_JUMPS_FOLLOWED or not FIRST_ITEM <= target < len(self.mission):
+                    break  # AP_Mission::get_next_cmd fails: the mission ends
                 done = self.jumps.get(item.seq, 0)
-                if item.param2 < 0 or done < item.param2:
+                if times == -1 or done < times:
                     self.jumps[item.seq] = done + 1
-                    self.current = int(item.param1)
-                    self.reached_sent = -1
+                    index = target
                 else:
-                    self.current += 1
+                    index += 1
                 continue
-            if item.command not in (NAV_WAYPOINT, NAV_RTL):
-                self.current += 1
-                continue
-            break
-        if item.command == NAV_RTL:
-            self.mode = MODES["RTL"]
-            self.rtl_arrived = False
-            return
-        if self.hold_until is not None:
-            self.vn = self.ve = 0.0
-            if now >= self.hold_until:
-                self.hold_until = None
-                self.current += 1
-            return
-        lat, lon = item.x / 1e7, item.y / 1e7
-        left = self._drive_to(lat, lon, dt)
-        radius = item.param2 if item.param2 > 0 else DEFAULT_WP_RADIUS_M
-        if left <= radius and self.reached_sent != item.seq:
-            self.reached_sent = item.seq
-            self._emit(None, "mission_item_reached", item.seq)
-            self.hold_until = now + item.param1 if item.param1 > 0 else None
-            if self.hold_until is None:
-                self.current += 1
+            if item.command in NAV_COMMANDS:
+                self.current, self.nav_loaded, self.arrived_at = index, True, None
+                if item.command == NAV_RTL:
+                    self.speed = self.cruise_speed  # ModeRTL::_enter starts at RTL_SPEED/WP_SPEED
+                return True
+            if item.command == DO_CHANGE_SPEED and item.param2 >= SPEED_MIN_MPS:
+                self.speed = item.param2
+                self.events.append(Event(now, "speed", item.seq, item.param2))
+                self.statustext(None, f"speed: {item.param2:.1f} m/s", 6)
+            self._item_done(item, now)
+            index += 1
+        self.complete, self.nav_loaded = True, False
+        self.events.append(Event(now, "complete", self.current))
+        self.statustext(None, "Mission Complete", 5)
+        return False
 
     # -- receiving ----------------------------------------------------------------------------
 
@@ -475,8 +591,13 @@ class RoverSim:
         if name == "AUTO" and len(self.mission) <= 1:
             self.statustext(conn, "AutoMode: no mission")
             return mavlink.MAV_RESULT_FAILED
-        if name == "AUTO" and self.current == 0:
-            self.current = 1
+        if name == "AUTO":
+            # ModeAuto::_enter → start_or_resume: a finished mission starts again from item 1,
+            # a stopped one resumes its current item from the start.
+            if self.complete or self.current < FIRST_ITEM:
+                self.current, self.jumps, self.complete = FIRST_ITEM, {}, False
+            self.nav_loaded, self.arrived_at = False, None
+        self.speed = self.cruise_speed  # every mode's wp_nav.init() starts at WP_SPEED
         if name == "GUIDED":
             self.target = None  # Rover holds position until given a target
         if name in ("RTL", "SMART_RTL"):
@@ -504,11 +625,19 @@ class RoverSim:
             self._set_current(msg.seq)
 
     def _set_current(self, seq: int) -> None:
-        self.current, self.reached_sent, self.hold_until = seq, -1, None
-        self._emit(None, "mission_current", seq, max(0, len(self.mission) - 1))
+        # AP_Mission::set_current_cmd; GCS_MAVLINK echoes the seq asked for in MISSION_CURRENT.
+        self.current, self.nav_loaded, self.arrived_at, self.complete = seq, False, None, False
+        self._send_current(seq)
+
+    def load_mission(self, items: list[Item]) -> None:
+        """A new mission, as an accepted upload leaves it (a test may load one directly): kept
+        as AP_Mission keeps it (:func:`stored`), not started."""
+        self.mission = [stored(i) for i in items]
+        self.current, self.jumps, self.complete = 0, {}, False
+        self.nav_loaded, self.arrived_at = False, None
 
     def _on_mission_clear_all(self, conn: Any, msg: Any, now: float) -> None:
-        self.mission, self.current = [], 0
+        self.load_mission([])
         self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
 
     def _mission_ack(self, conn: Any, code: int) -> None:
@@ -524,7 +653,7 @@ class RoverSim:
             self._mission_ack(conn, mavlink.MAV_MISSION_NO_SPACE)
             return
         if msg.count == 0:
-            self.mission, self.current = [], 0
+            self.load_mission([])
             self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
             return
         self.upload = {"conn": conn, "count": msg.count, "items": [], "started": now}
@@ -584,15 +713,15 @@ class RoverSim:
         if msg.seq != len(up["items"]):
             self._request_next(now)  # a late duplicate or a skipped item: ask for the one we need
             return
-        if msg.frame not in GLOBAL_FRAMES and msg.command in (NAV_WAYPOINT,):
+        if msg.frame not in GLOBAL_FRAMES and msg.command in LOCATION_COMMANDS:
             self.upload = None
             self._mission_ack(conn, mavlink.MAV_MISSION_UNSUPPORTED_FRAME)
             return
-        if msg.command == NAV_WAYPOINT and not -90e7 <= x <= 90e7:
+        if msg.command in LOCATION_COMMANDS and not -90e7 <= x <= 90e7:
             self.upload = None
             self._mission_ack(conn, mavlink.MAV_MISSION_INVALID_PARAM5_X)
             return
-        if msg.command == NAV_WAYPOINT and not -180e7 <= y <= 180e7:
+        if msg.command in LOCATION_COMMANDS and not -180e7 <= y <= 180e7:
             self.upload = None
             self._mission_ack(conn, mavlink.MAV_MISSION_INVALID_PARAM6_Y)
             return
@@ -619,7 +748,7 @@ class RoverSim:
         code = mavlink.MAV_MISSION_ACCEPTED if self.reject_mission is None else self.reject_mission
         self.uploaded = {"conn": conn, "count": up["count"], "code": code}
         if code == mavlink.MAV_MISSION_ACCEPTED:
-            self.mission, self.current, self.jumps = up["items"], 0, {}
+            self.load_mission(up["items"])
         self._mission_ack(conn, code)
 
     # Download: vehicle → GCS -----------------------------------------------------------------

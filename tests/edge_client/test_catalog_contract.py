@@ -8,10 +8,20 @@ side that the other lacks fails here, before a boat refuses a command the server
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from commands import catalog
 from edge_client import catalog as edge
 from edge_client.executor import CommandError, validate
+from edge_client.mission import (
+    MAV_CMD_DO_CHANGE_SPEED,
+    MAV_CMD_DO_JUMP,
+    MAV_CMD_NAV_RETURN_TO_LAUNCH,
+    MAV_CMD_NAV_WAYPOINT,
+    build_mission,
+)
+from edge_client.sim.rover import MAX_MISSION_ITEMS as SIM_MAX_MISSION_ITEMS
 from edge_client.sim.rover import MODES as SIM_MODES
 from edge_client.vehicle import MODE_NAMES
 
@@ -47,6 +57,10 @@ def test_every_range_is_the_catalogs() -> None:
 
 def test_the_mission_length_limit_is_the_catalogs() -> None:
     assert edge.MISSION_MAX_ITEMS == catalog.MISSION_MAX_ITEMS
+
+
+def test_the_simulated_rover_holds_as_many_mission_items_as_the_catalog_allows_for() -> None:
+    assert SIM_MAX_MISSION_ITEMS == catalog.MISSION_MAX_MAVLINK_ITEMS
 
 
 def test_rover_modes_are_the_catalogs_by_name_and_number() -> None:
@@ -103,3 +117,45 @@ def test_the_boot_time_mode_cannot_be_asked_for() -> None:
 def test_the_ways_a_mission_may_end_are_the_catalogs() -> None:
     assert edge.MISSION_ENDS == catalog.MISSION_ENDS
     assert catalog.KINDS["mission"].param("end").choices == edge.MISSION_ENDS
+
+
+MISSION_ITEMS = st.lists(
+    st.fixed_dictionaries(
+        {
+            "lat": st.floats(-90, 90),
+            "lon": st.floats(-180, 180),
+            "hold_s": st.floats(0, 3600),
+            "radius_m": st.none() | st.floats(0.5, 1000),
+            "speed_mps": st.none() | st.floats(0.1, 20),
+        }
+    ),
+    min_size=1,
+    max_size=40,
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(items=MISSION_ITEMS, end=st.sampled_from(catalog.MISSION_ENDS))
+def test_the_boat_uploads_exactly_the_items_the_catalog_counts_in_the_documented_order(
+    items: list[dict], end: str
+) -> None:
+    # Every item the catalog cleans, the boat builds; the count is the server's.
+    clean = catalog.validate("mission", {"items": items, "end": end}, vessel_kind=catalog.MAVLINK)
+    mission = build_mission((-31.98, 115.82), validate("mission", clean.params)["items"], end=end)
+    assert len(mission) == catalog.mission_mavlink_item_count(clean.params["items"], end)
+    # Home, then per item [DO_CHANGE_SPEED if it has a speed] + NAV_WAYPOINT, then the end.
+    expected = [MAV_CMD_NAV_WAYPOINT]
+    for item in items:
+        expected += [MAV_CMD_DO_CHANGE_SPEED] * (item["speed_mps"] is not None)
+        expected.append(MAV_CMD_NAV_WAYPOINT)
+    expected += {"stop": [], "loop": [MAV_CMD_DO_JUMP], "return_home": [
+        MAV_CMD_NAV_RETURN_TO_LAUNCH]}[end]  # fmt: skip
+    assert [i.command for i in mission] == expected
+    assert [i.seq for i in mission] == list(range(len(mission)))
+    waypoints = [i for i in mission[1:] if i.command == MAV_CMD_NAV_WAYPOINT]
+    speeds = [i.param2 for i in mission if i.command == MAV_CMD_DO_CHANGE_SPEED]
+    assert [(w.x, w.y) for w in waypoints] == [
+        (round(i["lat"] * 1e7), round(i["lon"] * 1e7)) for i in items
+    ]
+    assert [w.param2 for w in waypoints] == [i["radius_m"] or 0.0 for i in items]
+    assert speeds == [i["speed_mps"] for i in items if i["speed_mps"] is not None]

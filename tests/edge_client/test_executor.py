@@ -10,6 +10,7 @@ import pytest
 
 from edge_client.config import CommandsConfig, MavlinkConfig
 from edge_client.executor import Command, CommandError, Executor, validate
+from edge_client.geo import distance_m
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Outbox
 from tests.edge_client.conftest import free_port
@@ -360,7 +361,60 @@ def test_mission_is_uploaded_with_home_first_and_run_to_the_end(
     assert (stored[0].x, stored[0].y) == (round(START[0] * 1e7), round(START[1] * 1e7))
     run_until_settled(executor)
     assert acks(outbox, c.uid)[-1] == ("done", "mission complete: reached waypoint 3")
-    assert sim.sim.mode_name == "HOLD"
+    assert sim.sim.mode_name == "AUTO" and sim.sim.complete  # Rover stops, still in AUTO
+
+
+@pytest.mark.slow
+def test_a_mission_ending_home_is_done_once_the_final_rtl_has_brought_the_boat_home(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    items = [{**WAYPOINTS[0], "speed_mps": 20.0}, *WAYPOINTS[1:]]
+    c = cmd("mission", mission_id=3, items=items, end="return_home")
+    executor.execute(c)  # the boat starts at home: that must not count as being back
+    assert statuses(outbox, c.uid) == ["acknowledged"], acks(outbox, c.uid)
+    run_until_settled(executor)
+    status, detail = acks(outbox, c.uid)[-1]
+    assert status == "done", detail
+    rtl = len(sim.sim.mission) - 1  # home, speed, 3 waypoints, RTL
+    assert rtl == 5 and [e.seq for e in sim.sim.events if e.kind == "arrived"][-1] == rtl
+    # Where the simulator is (our own position reports may still be a moment behind).
+    assert distance_m(sim.sim.lat, sim.sim.lon, *START) <= sim.sim.wp_radius
+    assert sim.sim.mode_name == "AUTO"  # Rover's mission RTL is a sub-mode of AUTO
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("end", "said"),
+    # return_home: Rover's "Reached destination", or our own position once RTL is current.
+    [("stop", "the autopilot says so"), ("return_home", "home")],
+)
+def test_a_mission_whose_item_reached_reports_are_lost_ends_on_rovers_own_words(
+    make_sim, make_link, outbox, commands_config, end, said
+):
+    sim = make_sim(lose=("MISSION_ITEM_REACHED",))
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("mission", mission_id=3, items=WAYPOINTS, end=end)
+    executor.execute(c)
+    run_until_settled(executor)
+    status, detail = acks(outbox, c.uid)[-1]
+    assert (status, said in detail) == ("done", True), detail
+    assert link.state.last_reached is None and sim.sim.complete
+
+
+def test_a_hold_longer_than_rover_can_keep_fails_before_anything_is_sent(
+    make_sim, make_link, outbox, commands_config
+):
+    sim = make_sim()
+    executor = Executor(make_link(sim.endpoint), outbox, commands_config)
+    c = cmd("mission", mission_id=3, items=[{**WAYPOINTS[0], "hold_s": 40000}])
+    executor.execute(c)
+    # The catalog's range is Rover's 16-bit limit, so the boat's own check refuses it first.
+    assert acks(outbox, c.uid) == [("failed", "item 0: hold_s 40000 is outside 0…32767")]
+    assert sim.sim.mission == []
 
 
 def test_a_looping_mission_is_done_once_running(make_sim, make_link, outbox, commands_config):

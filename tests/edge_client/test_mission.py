@@ -2,18 +2,27 @@
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from edge_client.mission import (
     EXCHANGE_TIMEOUT_S,
+    MAV_CMD_DO_CHANGE_SPEED,
     MAV_CMD_DO_JUMP,
+    MAV_CMD_NAV_RETURN_TO_LAUNCH,
     MAV_CMD_NAV_WAYPOINT,
+    MAV_FRAME_GLOBAL,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT,
     MAX_RETRIES,
+    ROVER_MAX_HOLD_S,
     MissionDownload,
+    MissionError,
+    MissionItem,
     MissionUpload,
     Out,
     build_mission,
+    hold_seconds,
     item_out,
 )
 
@@ -35,12 +44,67 @@ def ack(code: int = 0):
     return ("MISSION_ACK", {"type": code, "mission_type": 0})
 
 
-def test_build_mission_puts_home_first_and_waypoint_params_in_place():
-    m = build_mission((-31.94, 115.85), WPS, loop=True)
-    assert [i.seq for i in m] == [0, 1, 2, 3]
-    assert (m[0].x, m[0].y, m[0].command) == (-319400000, 1158500000, MAV_CMD_NAV_WAYPOINT)
-    assert (m[1].param1, m[1].param2) == (5.0, 3.0)  # hold seconds, acceptance radius
-    assert m[3].command == MAV_CMD_DO_JUMP and (m[3].param1, m[3].param2) == (1.0, -1.0)
+HOME = (-31.94, 115.85)
+WP, SPEED, JUMP, RTL = (MAV_CMD_NAV_WAYPOINT, MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_DO_JUMP,
+                        MAV_CMD_NAV_RETURN_TO_LAUNCH)  # fmt: skip
+
+
+def shape(mission: list[MissionItem]) -> list[tuple]:
+    """(command, param1, param2) of each item after home: what the mapping decides."""
+    return [(i.command, i.param1, i.param2) for i in mission[1:]]
+
+
+def test_home_comes_first_in_the_global_frame_and_items_are_numbered_in_order():
+    m = build_mission(HOME, WPS)
+    assert [i.seq for i in m] == [0, 1, 2]
+    assert (m[0].command, m[0].x, m[0].y, m[0].frame) == (WP, -319400000, 1158500000, 0)
+    assert (m[1].x, m[1].y) == (-319500000, 1158600000)
+
+
+def test_a_waypoint_carries_its_hold_in_param1_and_its_radius_in_param2():
+    assert shape(build_mission(HOME, WPS)) == [(WP, 5.0, 3.0), (WP, 0.0, 0.0)]
+    assert build_mission(HOME, WPS)[1].frame == MAV_FRAME_GLOBAL_RELATIVE_ALT
+
+
+def test_a_speed_change_goes_just_before_its_waypoint_and_only_where_asked():
+    items = [{**WPS[0], "speed_mps": 1.5}, WPS[1], {**WPS[1], "speed_mps": 3}]
+    m = build_mission(HOME, items)
+    assert shape(m) == [(SPEED, 1.0, 1.5), (WP, 5.0, 3.0), (WP, 0.0, 0.0), (SPEED, 1.0, 3.0),
+                        (WP, 0.0, 0.0)]  # fmt: skip
+    # A DO command has no position: zeros in the global frame, as ArduPilot hands it back.
+    assert (m[1].x, m[1].y, m[1].z, m[1].frame, m[1].param3, m[1].param4) == (0, 0, 0, 0, 0, 0)
+
+
+def test_a_hold_is_kept_in_whole_seconds_rounded_up_so_none_is_lost():
+    assert [hold_seconds(h) for h in (0, 0.1, 1, 1.5, 2.0)] == [0, 1, 1, 2, 2]
+    assert hold_seconds(ROVER_MAX_HOLD_S) == ROVER_MAX_HOLD_S
+    with pytest.raises(MissionError, match="longer than ArduPilot Rover can hold"):
+        hold_seconds(ROVER_MAX_HOLD_S + 0.5)
+    with pytest.raises(MissionError, match="item 1: hold 86400 s"):
+        build_mission(HOME, [WPS[0], {**WPS[1], "hold_s": 86400}])
+
+
+def test_stop_adds_nothing_loop_jumps_back_to_item_1_forever_return_home_ends_with_rtl():
+    assert shape(build_mission(HOME, WPS, end="stop"))[-1] == (WP, 0.0, 0.0)
+    loop = build_mission(HOME, WPS, end="loop")[-1]
+    assert (loop.seq, loop.command, loop.param1, loop.param2, loop.frame) == (3, JUMP, 1, -1, 0)
+    home = build_mission(HOME, WPS, end="return_home")[-1]
+    assert (home.seq, home.command, home.x, home.y, home.frame) == (3, RTL, 0, 0, MAV_FRAME_GLOBAL)
+    with pytest.raises(MissionError, match="unknown mission end 'sink'"):
+        build_mission(HOME, WPS, end="sink")
+
+
+def test_a_loop_jumps_to_item_1_even_when_that_is_a_speed_change():
+    m = build_mission(HOME, [{**WPS[0], "speed_mps": 2}, WPS[1]], end="loop")
+    assert shape(m) == [(SPEED, 1.0, 2.0), (WP, 5.0, 3.0), (WP, 0.0, 0.0), (JUMP, 1.0, -1.0)]
+
+
+def test_the_largest_mission_the_catalog_allows_is_built_whole():
+    items = [{"lat": -31.9 - i / 1e4, "lon": 115.8, "hold_s": 1, "radius_m": 2, "speed_mps": 2}
+             for i in range(500)]  # fmt: skip
+    m = build_mission(HOME, items, end="return_home")
+    assert len(m) == 1 + 2 * 500 + 1 and [i.seq for i in m] == list(range(len(m)))
+    assert [i.command for i in m[1:5]] == [SPEED, WP, SPEED, WP] and m[-1].command == RTL
 
 
 def test_upload_answers_old_and_int_requests_with_item_int():

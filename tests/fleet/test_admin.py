@@ -28,7 +28,7 @@ def test_the_vessel_page_shows_keys_recent_fixes_and_commands(
 def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(
     admin_ui: Client, vessel_a: Vessel, glider: Vessel
 ) -> None:
-    ready = mission_save(mission=Mission(name="Ready", vessel=vessel_a, loop=True))
+    ready = mission_save(mission=Mission(name="Ready", vessel=vessel_a, end="loop"))
     mission_save_items(mission=ready, items=[{"lat": -31.9, "lon": 115.8, "radius_m": 5}])
     template = mission_save(mission=Mission(name="Template"))
     for_glider = mission_save(mission=Mission(name="Glider run", vessel=glider))
@@ -77,3 +77,20 @@ def test_operators_and_their_api_tokens_are_managed_in_the_admin(
     admin_ui: Client, url: str
 ) -> None:
     assert admin_ui.get(url).status_code == 200
+
+
+def test_the_send_action_shows_why_a_mission_fails_its_checks(
+    admin_ui: Client, vessel_a: Vessel, settings: object
+) -> None:
+    settings.MISSION_MAX_LEG_M = 1000
+    far = mission_save(mission=Mission(name="Far", vessel=vessel_a))
+    mission_save_items(
+        mission=far, items=[{"lat": -31.9, "lon": 115.8}, {"lat": -32.0, "lon": 115.8}]
+    )
+    response = admin_ui.post(
+        "/admin/vessels/mission/",
+        {"action": "send_to_vessel", "_selected_action": [far.pk]},
+        follow=True,
+    )
+    assert "Far: leg 1 → 2 is 11.1 km, longer than the limit of 1.0 km" in response.content.decode()
+    assert not Command.objects.exists()

@@ -17,6 +17,7 @@ class VesselSerializer(serializers.ModelSerializer):
             "kind",
             "active",
             "telemetry_period_s",
+            "cruise_speed_mps",
             "status",
             "last_seen_at",
             "last_fix_at",

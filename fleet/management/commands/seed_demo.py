@@ -140,7 +140,7 @@ class Command(BaseCommand):
         command_claim_open(vessel=spab)
         command_ack(vessel=spab, uid=done.uid, status="acknowledged")
         command_ack(vessel=spab, uid=done.uid, status="done", detail="arrived")
-        mission = mission_save(mission=Mission(name="Matilda Bay loop", vessel=spab, loop=True))
+        mission = mission_save(mission=Mission(name="Matilda Bay loop", vessel=spab, end="loop"))
         mission_save_items(
             mission=mission,
             items=[

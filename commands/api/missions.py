@@ -1,0 +1,49 @@
+"""`POST /api/v1/missions/<id>/send/`: queue a mission as a `mission` command.
+
+Here, not beside the mission API in vessels: it writes a command, and vessels sits below
+commands (DESIGN §2). The checks are the ones every mission command passes
+(commands.services.command_validate: the catalog, then the route with MISSION_MAX_LEG_M).
+"""
+
+from __future__ import annotations
+
+from django.shortcuts import get_object_or_404
+from drf_spectacular.utils import extend_schema
+from rest_framework import serializers, status
+from rest_framework.request import Request
+from rest_framework.response import Response
+from rest_framework.views import APIView
+
+from commands.api.operator import CommandSerializer
+from commands.models import Command, Source
+from commands.services import mission_send
+from vessels.permissions import CanViewVessels, ModelPermissions
+from vessels.selectors import missions_visible_to, vessel_by_slug
+
+
+class MissionSendSerializer(serializers.Serializer):
+    vessel = serializers.SlugField(
+        required=False, help_text="slug of the vessel to run it (default: the mission's own)"
+    )
+
+
+class MissionSendView(APIView):
+    queryset = Command.objects.none()  # sending needs commands.add_command
+    permission_classes = [ModelPermissions, CanViewVessels]
+
+    @extend_schema(
+        request=MissionSendSerializer, responses={201: CommandSerializer}, tags=["operator"]
+    )
+    def post(self, request: Request, pk: int) -> Response:
+        """Queue the mission for its vessel (or `vessel`), checked first: 400 says why not."""
+        mission = get_object_or_404(missions_visible_to(request.user), pk=pk)
+        incoming = MissionSendSerializer(data=request.data)
+        incoming.is_valid(raise_exception=True)
+        slug = incoming.validated_data.get("vessel")
+        command = mission_send(
+            mission=mission,
+            vessel=vessel_by_slug(slug) if slug else None,
+            source=Source.API,
+            created_by=request.user.get_username(),
+        )
+        return Response(CommandSerializer(command).data, status=status.HTTP_201_CREATED)

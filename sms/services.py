@@ -1,0 +1,488 @@
+"""SMS writes: the one entry point for an incoming SMS, the outgoing queue the modem loop sends,
+and the authorised numbers (DESIGN §7: only active authorised numbers with the right role are
+answered; everything else is logged and not answered).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import functools
+import hashlib
+import logging
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import phonenumbers
+from django.conf import settings
+from django.core.exceptions import ValidationError
+from django.db import IntegrityError, transaction
+from django.db.models import Exists, OuterRef
+from django.utils import timezone
+
+from commands import catalog
+from commands.errors import CatalogError, CommandError
+from commands.models import Command, Source
+from commands.services import command_enqueue
+from sms import language, selectors
+from sms.errors import InvalidNumber, NumberNotFound
+from sms.language import Answer, Item, ItemKind
+from sms.level2.inner import InnerCommandTable
+from sms.models import (
+    RAW_NUMBER_MAX,
+    AuthorisedNumber,
+    Direction,
+    Outcome,
+    Role,
+    SendStatus,
+    SmsMessage,
+)
+from vessels.kinds import WAVE_GLIDER
+from vessels.models import Vessel
+
+logger = logging.getLogger(__name__)
+
+# Longer texts are stored cut (and refused whole by the language, which reads MAX_TEXT).
+TEXT_STORE_MAX = 4000
+DETAIL_MAX = 200
+# NUL and the UTF-16 surrogate range: PostgreSQL cannot store either as text.
+_UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
+_NUMBER_CACHE = 4096
+
+
+# -- numbers ----------------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=_NUMBER_CACHE)
+def _e164(raw: str, region: str) -> str:
+    try:
+        parsed = phonenumbers.parse(raw, region)
+    except phonenumbers.NumberParseException as exc:
+        raise InvalidNumber(f"{raw!r} is not a phone number ({exc})") from None
+    if not phonenumbers.is_valid_number(parsed):
+        raise InvalidNumber(f"{raw!r} is not a valid phone number in {region} or abroad")
+    return phonenumbers.format_number(parsed, phonenumbers.PhoneNumberFormat.E164)
+
+
+def number_normalise(*, raw: str, region: str | None = None) -> str:
+    """The E.164 form of a phone number written in any usual way; raises InvalidNumber.
+
+    ``+61 412-345-678``, ``0412 345 678`` (national, read in ``region``, by default the
+    setting SMS_DEFAULT_REGION) and ``0011 61 412 345 678`` all give ``+61412345678``.
+    """
+    return _e164(raw.strip(), region or settings.SMS_DEFAULT_REGION)
+
+
+def _e164_or_blank(raw: str) -> str:
+    try:
+        return number_normalise(raw=raw)
+    except InvalidNumber:
+        return ""  # an alphanumeric sender ("Telstra") or garbage: never authorised
+
+
+# -- incoming ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SmsOutcome:
+    """What an incoming SMS led to: its log entry, the replies to send, the commands queued."""
+
+    message: SmsMessage
+    replies: tuple[SmsMessage, ...] = ()
+    commands: tuple[Command, ...] = ()
+    duplicate: bool = False  # delivered before: this is what the first delivery got
+
+    @property
+    def outcome(self) -> str:
+        return self.message.outcome
+
+    @property
+    def reply_texts(self) -> list[str]:
+        return [reply.text for reply in self.replies]
+
+
+@functools.cache
+def shipped_table() -> InnerCommandTable:
+    """The glider's inner command table as shipped (sms/level2/inner_commands.toml)."""
+    return InnerCommandTable.load()
+
+
+def sms_handle_incoming(
+    *,
+    vessel: Vessel,
+    number: str,
+    text: str,
+    received_at: dt.datetime,
+    modem_timestamp: dt.datetime | None = None,
+    table: InnerCommandTable | None = None,
+    send_replies: bool = True,
+) -> SmsOutcome:
+    """Handle one SMS that reached ``vessel``'s modem; the one way in for every SMS.
+
+    1. A delivery seen before (same vessel, number, text and modem time stamp: a modem
+       re-reading its store) returns what the first one got and creates nothing.
+    2. The sender is looked up by E.164 number: a stranger, an inactive, expired or other
+       vessel's number is logged and gets no reply at all (a stranger learns nothing).
+    3. A number past SMS_RATE_LIMIT messages in SMS_RATE_WINDOW_S is logged, not answered.
+    4. The text is parsed (:mod:`sms.language`, checked against the glider's inner command
+       ``table``, the shipped one by default); a query-role number that commands is refused.
+    5. Commands are queued (source ``sms``, created by the number), queries answered from
+       the vessel's known state, and one reply is stored as pending for the modem
+       (``send_replies=False``: stored as not to be sent, for ``sms_inject``).
+
+    Everything is written in one transaction.
+    """
+    text = _UNSTORABLE.sub("\ufffd", text[:TEXT_STORE_MAX])
+    number = _UNSTORABLE.sub("\ufffd", number.strip())[:RAW_NUMBER_MAX]
+    key = _delivery_key(vessel, number, text, modem_timestamp)
+    if key and (seen := _delivered(key)):
+        return seen
+    if table is None and vessel.kind == WAVE_GLIDER:
+        table = shipped_table()
+    try:
+        with transaction.atomic():
+            return _handle(
+                vessel=vessel,
+                number=number,
+                text=text,
+                received_at=received_at,
+                modem_timestamp=modem_timestamp,
+                key=key,
+                table=table if vessel.kind == WAVE_GLIDER else None,
+                send_replies=send_replies,
+            )
+    except IntegrityError:
+        # Two deliveries of one SMS racing: the other one committed first.
+        seen = _delivered(key) if key else None
+        if seen is None:
+            raise
+        logger.info("SMS from %s delivered twice at once; handled once", number)
+        return seen
+
+
+def _delivery_key(
+    vessel: Vessel, number: str, text: str, modem_timestamp: dt.datetime | None
+) -> str | None:
+    if modem_timestamp is None:
+        return None
+    stamp = modem_timestamp.astimezone(dt.UTC).isoformat()
+    raw = "\x1f".join([str(vessel.pk), number, stamp, text])
+    return hashlib.sha256(raw.encode("utf-8", "surrogatepass")).hexdigest()
+
+
+def _delivered(key: str) -> SmsOutcome | None:
+    message = SmsMessage.objects.filter(delivery_key=key).first()
+    if message is None:
+        return None
+    return SmsOutcome(
+        message=message,
+        replies=tuple(message.replies.order_by("pk")),
+        commands=tuple(message.commands.order_by("pk")),
+        duplicate=True,
+    )
+
+
+def _handle(
+    *,
+    vessel: Vessel,
+    number: str,
+    text: str,
+    received_at: dt.datetime,
+    modem_timestamp: dt.datetime | None,
+    key: str | None,
+    table: InnerCommandTable | None,
+    send_replies: bool,
+) -> SmsOutcome:
+    e164 = _e164_or_blank(number)
+    message = SmsMessage(
+        direction=Direction.IN,
+        vessel=vessel,
+        number=number,
+        number_e164=e164,
+        text=text,
+        modem_timestamp=modem_timestamp,
+        received_at=received_at,
+        delivery_key=key,
+    )
+    entry, refusal = _identify(e164, vessel, received_at)
+    message.authorised_number = entry
+    if entry is None:
+        return _logged(message, Outcome.STRANGER)
+    if refusal:
+        return _logged(message, Outcome.REFUSED, refusal)
+    if _over_rate(e164, received_at):
+        message.authorised = True
+        limit = f"more than {settings.SMS_RATE_LIMIT} in {settings.SMS_RATE_WINDOW_S} s"
+        return _logged(message, Outcome.RATE_LIMITED, limit)
+    items = language.parse(text, vessel_kind=vessel.kind, table=table)
+    message.parsed = [item.as_dict() for item in items]
+    if entry.role != Role.CONTROL and any(item.commanding for item in items):
+        return _logged(message, Outcome.REFUSED, "query role: may not command")
+    message.authorised = True
+    answers, commands = _carry_out(items, vessel=vessel, sender=e164, now=received_at)
+    message.outcome = Outcome.ERROR if any(a.error for a in answers) else Outcome.ACCEPTED
+    # Built here from bounded values; full_clean() would cost a query per foreign key.
+    message.save()
+    reply = SmsMessage.objects.create(
+        direction=Direction.OUT,
+        vessel=vessel,
+        number=e164,
+        number_e164=e164,
+        authorised_number=entry,
+        authorised=True,
+        text=language.compose_reply(answers),
+        reply_to=message,
+        status=SendStatus.PENDING if send_replies else SendStatus.NOT_SENT,
+        status_detail="" if send_replies else "shown by sms_inject, not sent",
+    )
+    if commands:
+        link = SmsMessage.commands.through
+        link.objects.bulk_create(
+            [link(smsmessage=m, command=c) for m in (message, reply) for c in commands]
+        )
+    return SmsOutcome(message=message, replies=(reply,), commands=tuple(commands))
+
+
+def _logged(message: SmsMessage, outcome: Outcome, detail: str = "") -> SmsOutcome:
+    message.outcome = outcome
+    message.detail = detail[:DETAIL_MAX]
+    message.save()
+    return SmsOutcome(message=message)
+
+
+def _identify(e164: str, vessel: Vessel, now: dt.datetime) -> tuple[AuthorisedNumber | None, str]:
+    """The sender's entry (None: a stranger) and why it may not use this vessel ("" if it may)."""
+    if not e164:
+        return None, ""
+    for_vessel = AuthorisedNumber.vessels.through.objects.filter(
+        authorisednumber_id=OuterRef("pk"), vessel_id=vessel.pk
+    )
+    entry = (
+        AuthorisedNumber.objects.filter(number=e164).annotate(for_vessel=Exists(for_vessel)).first()
+    )
+    if entry is None:
+        return None, ""
+    if not entry.active:
+        return entry, "number inactive"
+    if entry.expires_at is not None and entry.expires_at <= now:
+        return entry, f"authorisation expired {entry.expires_at:%Y-%m-%d %H:%M} UTC"
+    if not entry.for_vessel:
+        return entry, f"not authorised for {vessel.slug}"
+    return entry, ""
+
+
+def _over_rate(e164: str, now: dt.datetime) -> bool:
+    limit = settings.SMS_RATE_LIMIT
+    if limit <= 0:
+        return False
+    since = now - dt.timedelta(seconds=settings.SMS_RATE_WINDOW_S)
+    recent = SmsMessage.objects.filter(
+        direction=Direction.IN, number_e164=e164, received_at__gt=since, received_at__lte=now
+    )
+    return recent[:limit].count() >= limit
+
+
+def _carry_out(
+    items: Sequence[Item], *, vessel: Vessel, sender: str, now: dt.datetime
+) -> tuple[list[Answer], list[Command]]:
+    """One answer per item, in order, and the commands queued for it."""
+    answers: list[Answer] = []
+    queued: list[tuple[int, Command]] = []
+    for item in items:
+        if item.kind == ItemKind.COMMAND:
+            try:
+                command = command_enqueue(
+                    vessel=vessel,
+                    kind=item.command,
+                    params=dict(item.params),
+                    source=Source.SMS,
+                    created_by=sender,
+                )
+            except CommandError as exc:  # the vessel was made inactive, …
+                answers.append(Answer(item.echo, f"ERR {exc.message}", error=True))
+                continue
+            queued.append((len(answers), command))
+            answers.append(Answer(item.echo, "QUEUED"))
+        elif item.kind == ItemKind.QUERY:
+            answers.append(_answer_query(vessel, item))
+        elif item.kind == ItemKind.STATUS:
+            answers.append(_answer_status(vessel, item, now))
+        elif item.kind == ItemKind.HELP:
+            answers.append(language.answer_help(item))
+        else:
+            answers.append(language.answer_error(item))
+    _say_superseded(answers, queued)
+    return answers, [command for _, command in queued]
+
+
+def _say_superseded(answers: list[Answer], queued: list[tuple[int, Command]]) -> None:
+    """Two navigation orders in one SMS: the later one replaced the earlier; say so."""
+    if sum(1 for _, c in queued if catalog.KINDS[c.kind].navigation) < 2:
+        return
+    statuses = dict(
+        Command.objects.filter(pk__in=[c.pk for _, c in queued]).values_list("pk", "status")
+    )
+    for index, command in queued:
+        command.status = statuses[command.pk]
+        if command.status != "queued":
+            answers[index] = Answer(answers[index].echo, command.status.upper())
+
+
+def _values(command: Command) -> str:
+    """A stored command's values as its SMS text gives them (``ON`` for ``#LIGHT ON``)."""
+    try:
+        text = catalog.to_text(command.kind, command.params)
+    except (CatalogError, KeyError, TypeError, ValueError):
+        return command.kind
+    return text.partition(" ")[2] or text
+
+
+def _command_text(command: Command) -> str:
+    try:
+        return catalog.to_text(command.kind, command.params)
+    except (CatalogError, KeyError, TypeError, ValueError):
+        return command.kind  # a kind with no text form (move_to on a MAVLink boat)
+
+
+def _answer_query(vessel: Vessel, item: Item) -> Answer:
+    """``#LIGHT`` → ``#LIGHT ON``: the newest command of the kind the vessel has (or "unknown"),
+    then a newer one still queued (``#LIGHT ON, OFF QUEUED``)."""
+    state = selectors.command_state(vessel=vessel, kind=item.command)
+    known = state.known
+    if known is None:
+        outcome = "unknown"
+    else:
+        outcome = _values(known) + ("" if known.status == "done" else f" ({known.status})")
+    queued = state.queued
+    if queued is not None and (known is None or queued.created_at >= known.created_at):
+        outcome += f", {_values(queued)} QUEUED"
+    return Answer(item.echo, outcome)
+
+
+def _age(seconds: float) -> str:
+    seconds = max(0, int(seconds))
+    for unit, size, up_to in (("s", 1, 120), ("m", 60, 120 * 60), ("h", 3600, 48 * 3600)):
+        if seconds < up_to:
+            return f"{seconds // size}{unit}"
+    return f"{seconds // 86400}d"
+
+
+def _answer_status(vessel: Vessel, item: Item, now: dt.datetime) -> Answer:
+    """Position and its age, battery, navigation mode, pending commands (DESIGN §4)."""
+    fresh = Vessel.objects.only("last_fix", "last_fix_at", "kind").get(pk=vessel.pk)
+    fix = fresh.last_fix or {}
+    if isinstance(fix.get("lat"), int | float) and isinstance(fix.get("lon"), int | float):
+        age = f" {_age((now - fresh.last_fix_at).total_seconds())} ago" if fresh.last_fix_at else ""
+        position = f"pos {fix['lat']:.4f} {fix['lon']:.4f}{age}"
+    else:
+        position = "pos unknown"
+    battery = fresh.battery_v
+    battery_text = f"batt {battery:.1f}V" if isinstance(battery, int | float) else "batt unknown"
+    navigation = selectors.navigation_current(vessel=vessel)
+    nav = f"nav {_command_text(navigation)} {navigation.status}" if navigation else "nav unknown"
+    pending = selectors.commands_pending(vessel=vessel)
+    return Answer(item.echo, f"{position}, {battery_text}, {nav}, {pending} pending")
+
+
+# -- outgoing (the modem loop) ----------------------------------------------------------------
+
+
+def sms_outgoing_pending(*, vessel: Vessel) -> list[SmsMessage]:
+    """The vessel's replies waiting for the modem, oldest first."""
+    return list(
+        SmsMessage.objects.filter(
+            vessel=vessel, direction=Direction.OUT, status=SendStatus.PENDING
+        ).order_by("created_at", "pk")
+    )
+
+
+def _settle(message: SmsMessage, changes: dict[str, object]) -> bool:
+    """Move a pending outgoing SMS on, once: a conditional UPDATE, so a second mark is a no-op."""
+    won = (
+        SmsMessage.objects.filter(
+            pk=message.pk, direction=Direction.OUT, status=SendStatus.PENDING
+        ).update(**changes)
+        == 1
+    )
+    if won:
+        for name, value in changes.items():
+            setattr(message, name, value)
+    return won
+
+
+def sms_mark_sent(*, message: SmsMessage, reference: int | str, now: dt.datetime) -> bool:
+    """The modem took the SMS (``+CMGS: <reference>``); False if it was not pending."""
+    return _settle(
+        message, {"status": SendStatus.SENT, "reference": str(reference)[:20], "sent_at": now}
+    )
+
+
+def sms_mark_failed(*, message: SmsMessage, reason: str, now: dt.datetime) -> bool:
+    """The modem refused the SMS for good (``+CMS ERROR``); False if it was not pending."""
+    return _settle(
+        message,
+        {"status": SendStatus.FAILED, "status_detail": reason[:DETAIL_MAX], "sent_at": None},
+    )
+
+
+# -- authorised numbers -----------------------------------------------------------------------
+
+
+@transaction.atomic
+def authorised_number_save(
+    *, entry: AuthorisedNumber, vessels: Iterable[Vessel] | None = None
+) -> AuthorisedNumber:
+    """Save an entry (new or edited) with its number in E.164; raises InvalidNumber or
+    ValidationError. ``vessels``, when given, replaces the vessels it may address."""
+    entry.number = number_normalise(raw=entry.number)
+    entry.full_clean()
+    entry.save()
+    if vessels is not None:
+        entry.vessels.set(list(vessels))
+    return entry
+
+
+@transaction.atomic
+def authorised_number_authorise(
+    *,
+    number: str,
+    vessels: Sequence[Vessel],
+    role: str,
+    name: str,
+    expires_at: dt.datetime | None = None,
+    notes: str | None = None,
+) -> AuthorisedNumber:
+    """Authorise a number for exactly these vessels (creating or updating its entry, active).
+
+    Idempotent, for scripted provisioning (``manage.py authorise_number``).
+    """
+    e164 = number_normalise(raw=number)
+    entry = AuthorisedNumber.objects.filter(number=e164).first() or AuthorisedNumber(number=e164)
+    entry.name = name
+    entry.role = role
+    entry.active = True
+    entry.expires_at = expires_at
+    if notes is not None:
+        entry.notes = notes
+    return authorised_number_save(entry=entry, vessels=vessels)
+
+
+def authorised_number_deauthorise(
+    *, number: str | None = None, entry: AuthorisedNumber | None = None
+) -> AuthorisedNumber:
+    """Make an entry inactive (kept, so the log still names its holder)."""
+    if entry is None:
+        e164 = number_normalise(raw=number or "")
+        entry = AuthorisedNumber.objects.filter(number=e164).first()
+        if entry is None:
+            raise NumberNotFound(f"{e164} is not an authorised number")
+    AuthorisedNumber.objects.filter(pk=entry.pk).update(active=False, updated_at=timezone.now())
+    entry.refresh_from_db()
+    return entry
+
+
+def validation_message(exc: ValidationError) -> str:
+    """A ValidationError as one line for a management command."""
+    if hasattr(exc, "message_dict"):
+        return "; ".join(f"{k}: {' '.join(v)}" for k, v in exc.message_dict.items())
+    return " ".join(exc.messages)

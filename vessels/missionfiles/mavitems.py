@@ -1,0 +1,264 @@
+"""MAVLink mission items ↔ a Shoreside mission: the rules the `.plan` and `.waypoints` formats
+share (both are lists of MISSION_ITEM fields: command, frame, param1..7). Pure.
+
+Read (common.xml, MAV_CMD): NAV_WAYPOINT (param1 hold s, param2 acceptance radius m) and
+NAV_LOITER_TIME (param1 hold s) are waypoints; DO_CHANGE_SPEED (param2 m/s) is the speed of the
+next waypoint on; NAV_RETURN_TO_LAUNCH as the last item ends by returning home; DO_JUMP as the
+last item, back to the first item, repeating for ever (-1), is a loop. Anything else is
+unsupported, named by its number and MAV_CMD name. Write: the reverse, as the edge client
+uploads it (edge_client/mission.py): DO_CHANGE_SPEED before its NAV_WAYPOINT, then DO_JUMP to 1
+or NAV_RETURN_TO_LAUNCH.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from vessels.errors import MissionFileError
+from vessels.missionfiles.model import (
+    Item,
+    MissionFile,
+    finish,
+    hold,
+    position,
+    radius,
+    speed,
+)
+
+NAN = math.nan
+
+NAV_WAYPOINT = 16
+NAV_LOITER_TIME = 19
+NAV_RETURN_TO_LAUNCH = 20
+DO_JUMP = 177
+DO_CHANGE_SPEED = 178
+
+# MAV_CMD names (common.xml) for the commands mission files commonly hold; others are
+# named "MAV_CMD <n>".
+MAV_CMD_NAMES = {
+    16: "NAV_WAYPOINT",
+    17: "NAV_LOITER_UNLIM",
+    18: "NAV_LOITER_TURNS",
+    19: "NAV_LOITER_TIME",
+    20: "NAV_RETURN_TO_LAUNCH",
+    21: "NAV_LAND",
+    22: "NAV_TAKEOFF",
+    31: "NAV_LOITER_TO_ALT",
+    80: "NAV_ROI",
+    82: "NAV_SPLINE_WAYPOINT",
+    84: "NAV_VTOL_TAKEOFF",
+    85: "NAV_VTOL_LAND",
+    93: "NAV_DELAY",
+    112: "CONDITION_DELAY",
+    113: "CONDITION_CHANGE_ALT",
+    114: "CONDITION_DISTANCE",
+    115: "CONDITION_YAW",
+    176: "DO_SET_MODE",
+    177: "DO_JUMP",
+    178: "DO_CHANGE_SPEED",
+    179: "DO_SET_HOME",
+    181: "DO_SET_RELAY",
+    182: "DO_REPEAT_RELAY",
+    183: "DO_SET_SERVO",
+    184: "DO_REPEAT_SERVO",
+    189: "DO_LAND_START",
+    193: "DO_PAUSE_CONTINUE",
+    194: "DO_SET_REVERSE",
+    195: "DO_SET_ROI_LOCATION",
+    201: "DO_SET_ROI",
+    202: "DO_DIGICAM_CONFIGURE",
+    203: "DO_DIGICAM_CONTROL",
+    205: "DO_MOUNT_CONTROL",
+    206: "DO_SET_CAM_TRIGG_DIST",
+    211: "DO_GRIPPER",
+    214: "DO_SET_CAM_TRIGG_INTERVAL",
+    2000: "IMAGE_START_CAPTURE",
+    2001: "IMAGE_STOP_CAPTURE",
+    2500: "VIDEO_START_CAPTURE",
+    2501: "VIDEO_STOP_CAPTURE",
+    3000: "DO_VTOL_TRANSITION",
+}
+_FOR_AIRCRAFT = {21, 22, 31, 84, 85, 113, 189, 3000}
+_CAMERA = {200, 201, 202, 203, 204, 205, 206, 214, 530, 2000, 2001, 2500, 2501}
+
+# MAV_FRAME: positions a boat can sail to are global latitude/longitude (the altitude is
+# ignored at the surface); DO commands carry no position and are written in MAV_FRAME_MISSION.
+FRAME_GLOBAL = 0
+FRAME_MISSION = 2
+FRAME_GLOBAL_RELATIVE_ALT = 3
+NAV_FRAMES = {FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, 5, 6}  # 5, 6: the deprecated *_INT
+FRAME_NAMES = {
+    0: "GLOBAL",
+    1: "LOCAL_NED",
+    2: "MISSION",
+    3: "GLOBAL_RELATIVE_ALT",
+    4: "LOCAL_ENU",
+    5: "GLOBAL_INT",
+    6: "GLOBAL_RELATIVE_ALT_INT",
+    7: "LOCAL_OFFSET_NED",
+    8: "BODY_NED",
+    9: "BODY_OFFSET_NED",
+    10: "GLOBAL_TERRAIN_ALT",
+    11: "GLOBAL_TERRAIN_ALT_INT",
+}
+_TERRAIN_FRAMES = {10, 11}
+
+# ArduPilot DO_JUMP: a repeat count of -1 repeats for ever (edge_client/mission.JUMP_FOREVER).
+JUMP_FOREVER = -1
+# DO_CHANGE_SPEED param1 speed type (1 = ground speed), param3 throttle (-1 = no change).
+SPEED_TYPE_GROUND = 1
+THROTTLE_NO_CHANGE = -1
+
+
+def command_name(command: int) -> str:
+    name = MAV_CMD_NAMES.get(command)
+    return f"MAV_CMD_{name}" if name else f"MAV_CMD {command}"
+
+
+def frame_name(frame: int) -> str:
+    name = FRAME_NAMES.get(frame)
+    return f"MAV_FRAME_{name}" if name else f"MAV_FRAME {frame}"
+
+
+@dataclass(frozen=True)
+class RawItem:
+    """One item of a file: its number as the file counts it, a MAV_CMD (None for something
+    that is not one, such as a QGC ComplexItem, described by ``what``), frame and params."""
+
+    number: int
+    command: int | None
+    frame: int = FRAME_MISSION
+    params: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    jump_id: int | None = None
+    what: str = ""
+
+    @property
+    def label(self) -> str:
+        if self.command is None:
+            return f"item {self.number} ({self.what})"
+        return f"item {self.number} ({command_name(self.command)})"
+
+
+def _why_unsupported(command: int) -> str:
+    if command in _FOR_AIRCRAFT:
+        return "takeoff, landing and altitude commands are for aircraft"
+    if command in _CAMERA:
+        return "camera and gimbal actions are not part of a Shoreside mission"
+    return "a Shoreside mission holds waypoints, holds, speed changes, a loop or a return home"
+
+
+def read(
+    rows: Sequence[RawItem],
+    *,
+    skip_unsupported: bool,
+    home: tuple[float, float] | None = None,
+    name: str = "",
+) -> MissionFile:
+    """The mission these items describe. Raises MissionFileError listing every invalid item
+    and, unless ``skip_unsupported``, every unsupported one; skipped ones are listed."""
+    items: list[Item] = []
+    unsupported: list[str] = []
+    errors: list[str] = []
+    end = "stop"
+    pending: tuple[float, RawItem] | None = None  # a speed change waiting for its waypoint
+    for i, row in enumerate(rows):
+        last = i == len(rows) - 1
+        where, p = row.label, row.params
+        try:
+            if row.command is None:
+                unsupported.append(f"{where}: a Shoreside mission holds simple items only")
+            elif row.command in (NAV_WAYPOINT, NAV_LOITER_TIME):
+                if row.frame not in NAV_FRAMES:
+                    unsupported.append(f"{where}: {_frame_problem(row.frame)}")
+                    continue
+                lat, lon = position(where, p[4], p[5])
+                accept = radius(where, p[1]) if row.command == NAV_WAYPOINT else None
+                change = pending[0] if pending else None
+                items.append(Item(lat, lon, hold(where, p[0]), accept, change))
+                pending = None
+            elif row.command == DO_CHANGE_SPEED:
+                if pending is not None:
+                    unsupported.append(
+                        f"{pending[1].label}: overridden by {where} before a waypoint"
+                    )
+                pending = (speed(where, p[1]), row)
+            elif row.command == NAV_RETURN_TO_LAUNCH:
+                if last:
+                    end = "return_home"
+                else:
+                    unsupported.append(f"{where}: a return home is supported only as the last item")
+            elif row.command == DO_JUMP:
+                problem = _jump_problem(row, first=rows[0], last=last)
+                if problem:
+                    unsupported.append(f"{where}: {problem}")
+                else:
+                    end = "loop"
+            else:
+                unsupported.append(f"{where}: {_why_unsupported(row.command)}")
+        except MissionFileError as exc:
+            errors.extend(exc.problems)
+    if pending is not None:
+        unsupported.append(f"{pending[1].label}: a speed change after the last waypoint")
+    return finish(
+        items,
+        end=end,
+        home=home,
+        name=name,
+        errors=errors,
+        unsupported=unsupported,
+        skip_unsupported=skip_unsupported,
+    )
+
+
+def _frame_problem(frame: int) -> str:
+    if frame in _TERRAIN_FRAMES:
+        return f"altitude above terrain ({frame_name(frame)}) means nothing to a boat"
+    return f"{frame_name(frame)} is not a latitude/longitude frame a boat can use"
+
+
+def _jump_problem(row: RawItem, *, first: RawItem, last: bool) -> str:
+    target, repeat = row.params[0], row.params[1]
+    if not last:
+        return "a jump is supported only as the last item, back to the first (a loop)"
+    if first.jump_id is None or target != first.jump_id:
+        return (
+            f"a jump to item {_number(target)} (only a jump back to the first item, a loop, "
+            "is supported)"
+        )
+    if repeat != JUMP_FOREVER:
+        return f"repeats {_number(repeat)} times (only for ever, -1, is supported)"
+    return ""
+
+
+def _number(value: float) -> str:
+    return str(int(value)) if math.isfinite(value) and value.is_integer() else str(value)
+
+
+def write(mission: MissionFile) -> list[RawItem]:
+    """The mission as MAVLink items, numbered from 1, as the boat uploads them."""
+    rows: list[RawItem] = []
+
+    def add(command: int, frame: int, params: tuple[float, ...]) -> None:
+        n = len(rows) + 1
+        rows.append(RawItem(n, command, frame, params, jump_id=n))
+
+    for item in mission.items:
+        if item.speed_mps is not None:
+            add(
+                DO_CHANGE_SPEED,
+                FRAME_MISSION,
+                (SPEED_TYPE_GROUND, item.speed_mps, THROTTLE_NO_CHANGE, 0, 0, 0, 0),
+            )
+        # param4 (yaw) NaN: keep the heading the autopilot chooses.
+        add(
+            NAV_WAYPOINT,
+            FRAME_GLOBAL_RELATIVE_ALT,
+            (item.hold_s, item.radius_m or 0.0, 0.0, NAN, item.lat, item.lon, 0.0),
+        )
+    if mission.end == "loop":
+        add(DO_JUMP, FRAME_MISSION, (1, JUMP_FOREVER, 0, 0, 0, 0, 0))
+    elif mission.end == "return_home":
+        add(NAV_RETURN_TO_LAUNCH, FRAME_MISSION, (0, 0, 0, 0, 0, 0, 0))
+    return rows
