@@ -3,6 +3,7 @@
     python -m bench.maps                  # SQLite; PostgreSQL too when DATABASE_URL is set
     python -m bench.maps --postgres       # both, PostgreSQL in a throwaway database
     python -m bench.maps --fixes 200000   # a smaller run
+    python -m bench.maps --db postgres    # one database only
 
 Per database, in a child process with its own settings (bench.settings, production-like,
 DEBUG off): a fresh database (a temp SQLite file, or a throwaway PostgreSQL database dropped at
@@ -358,6 +359,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m bench.maps", description=__doc__.split("\n")[0])
     p.add_argument("--fixes", type=int, default=1_000_000)
     p.add_argument("--postgres", action="store_true", help="also PostgreSQL (127.0.0.1)")
+    p.add_argument("--db", choices=["sqlite", "postgres"], help="only this database")
     p.add_argument("--skip-naive", action="store_true", help="leave out the naive baseline")
     p.add_argument("--_child", action="store_true", help=argparse.SUPPRESS)
     opts = p.parse_args(argv)
@@ -365,6 +367,8 @@ def main(argv: list[str] | None = None) -> int:
         child(opts)
         return 0
     dbs = ["sqlite"] + (["postgres"] if opts.postgres or os.environ.get("DATABASE_URL") else [])
+    if opts.db:
+        dbs = [opts.db]
     for db in dbs:
         print(f"- {db}: building {opts.fixes:,} fixes and measuring ...", flush=True)
         print_table(run_child(db, opts))
