@@ -113,7 +113,7 @@ def series(*, vessel: Vessel, start: dt.datetime, end: dt.datetime, max_buckets:
                     if isinstance(value, int | float) and not isinstance(value, bool):
                         sampler.add(key, t, value)
             continue
-        for bucket in selectors.buckets(vessel.pk, piece_width, a, b):
+        for bucket in selectors.buckets(vessel.pk, piece_width, a, b, points=False):
             _add_bucket(sampler, bucket)
     return Series(
         width,

@@ -6,13 +6,13 @@ from __future__ import annotations
 from django.urls import path
 
 from telemetry.api.boat import LegacyDataView, TelemetryView
-from telemetry.api.views import (
-    VesselFixesView,
+from telemetry.api.maps import (
     VesselNearestFixView,
     VesselSeriesView,
     VesselTrackExportView,
     VesselTrackView,
 )
+from telemetry.api.views import VesselFixesView
 
 urlpatterns = [
     path("boat/telemetry/", TelemetryView.as_view(), name="boat-telemetry"),

@@ -32,7 +32,12 @@ class VesselViewSet(viewsets.ReadOnlyModelViewSet):
 LAST_FIX_FIELDS = ("time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings")
 
 
-def fleet_entry(vessel: Vessel, now: dt.datetime) -> dict[str, Any]:
+def admin_url_template() -> str:
+    """The vessel admin's change URL with `{pk}` in it: one reverse() per poll, not per vessel."""
+    return reverse("admin:vessels_vessel_change", args=[987654321]).replace("987654321", "{pk}")
+
+
+def fleet_entry(vessel: Vessel, now: dt.datetime, admin_url: str) -> dict[str, Any]:
     last = vessel.last_fix
     return {
         "slug": vessel.slug,
@@ -42,7 +47,7 @@ def fleet_entry(vessel: Vessel, now: dt.datetime) -> dict[str, Any]:
         "telemetry_period_s": vessel.telemetry_period_s,
         "last_seen_at": vessel.last_seen_at.isoformat() if vessel.last_seen_at else None,
         "last_fix": {k: last.get(k) for k in LAST_FIX_FIELDS} if last else None,
-        "admin_url": reverse("admin:vessels_vessel_change", args=[vessel.pk]),
+        "admin_url": admin_url.format(pk=vessel.pk),
     }
 
 
@@ -63,7 +68,8 @@ class FleetView(APIView):
 
     def get(self, request: Request) -> HttpResponse:
         now = dt.datetime.now(dt.UTC)
-        vessels = [fleet_entry(v, now) for v in fleet_vessels()]
+        admin_url = admin_url_template()
+        vessels = [fleet_entry(v, now, admin_url) for v in fleet_vessels()]
         encoded = json.dumps(vessels, separators=(",", ":"), sort_keys=True)
         etag = '"' + hashlib.sha256(encoded.encode()).hexdigest()[:32] + '"'
         if etag in _tags(request.headers.get("If-None-Match", "")):
