@@ -7,9 +7,14 @@ import pytest
 
 from commands.lifecycle import Status
 from commands.models import Command
+from sms.bridge.records import RecordTable
+from sms.bridge.sensor_standin import CAPTURED, RecordServer
+from sms.level2.bodies import StatusReply
+from sms.level2.runner import SerialLink
 from sms.models import Direction, Outcome, SendStatus, SmsMessage
 from vessels.models import Vessel
 
+from .conftest import status
 from .rig import CONTROL, QUERY, STRANGER, authorise, running_bridge, wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.django_db(transaction=True)]
@@ -106,3 +111,24 @@ def test_a_result_that_never_comes_is_queued_then_told_when_it_fails(glider: Ves
             (CONTROL, "#FHEAD 230 FAILED no answer from the C&C box"),
         ]
     assert SmsMessage.objects.filter(direction=Direction.OUT, status=SendStatus.SENT).count() == 2
+
+
+def test_status_gives_the_boards_readings_and_the_cc_gets_them_too(glider: Vessel) -> None:
+    stasis = RecordTable.load().records["stasis"]
+    board = RecordServer(stasis, lambda: CAPTURED, port=0, period_s=0.05).start()
+    authorise(glider)
+    try:
+        with running_bridge(
+            glider, sensor_host="127.0.0.1", sensor_ports={"stasis": board.port}
+        ) as rig:
+            assert wait_for(lambda: rig.bridge.readings.snapshot())
+            rig.modem.inject(QUERY, "#STATUS")
+            assert wait_for(lambda: rig.modem.sent)
+            link = SerialLink(rig.cc_port)
+            link.send(bytes(status(0x50)))
+            reply = link.receive(2.0)
+    finally:
+        board.stop()
+    assert rig.texts()[0][1].endswith("0 pending, 21.0C 35%RH 100.0kPa leak 0/0")
+    assert reply is not None
+    assert StatusReply.from_bytes(reply.body).block.pressure_kpa == 100
