@@ -13,9 +13,11 @@ board answered in 4–17 ms, level2.md §2, §10):
 * ``modem``: :class:`~sms.bridge.sms_link.SmsLink` (SMS in, held replies, SMS out); the driver
   reopens a port that went away and resets a modem that went silent.
 * ``sensors`` (with a sensor host): :class:`~sms.bridge.sensors.SensorSubscriber`.
+* ``loops`` given to the bridge (the shore link's ``run(stop)``), each in a thread of its own:
+  a slow shore server delays nothing else.
 * the main thread: :meth:`Bridge.do_one_housekeeping` about once a second (command timeouts,
-  fix batches, results the database refused, the ``periodic`` tasks such as a shore link,
-  ``close_old_connections``) and the systemd watchdog.
+  fix batches, results the database refused, the ``periodic`` tasks, ``close_old_connections``)
+  and the systemd watchdog.
 
 A stop (SIGTERM/SIGINT set the flag) ends the threads, then writes what is still in memory
 (fixes, command results). Everything else is in the database as it happens: queued commands,
@@ -97,8 +99,9 @@ class BridgeConfig:
     sensor_host: str = ""  # empty: no sensor manager
     sensor_ports: Mapping[str, int] = field(default_factory=dict)  # record name → UDP port
     power_command: str = ""  # empty: a power-down notice is only logged
-    upstream_url: str = ""
-    upstream_key: str = ""
+    # The shore server (issue 11 §6): WG_SHORE_URL and WG_SHORE_KEY, as sms.bridge.shore reads.
+    shore_url: str = ""
+    shore_key: str = ""
     tick_s: float = TICK_S
     reconnect_delay_s: float = RECONNECT_DELAY_S
 
@@ -112,8 +115,8 @@ class BridgeConfig:
             raise ValueError("reply_window_s must be 0 or more")
         if self.result_timeout_s <= 0 or self.tick_s <= 0:
             raise ValueError("result_timeout_s and tick_s must be above 0")
-        if bool(self.upstream_url) != bool(self.upstream_key):
-            raise ValueError("upstream_url and upstream_key go together")
+        if bool(self.shore_url) != bool(self.shore_key):
+            raise ValueError("the shore URL and key go together (--upstream-url, --upstream-key)")
         parse_command(self.power_command)  # a quoting mistake is a ValueError now, not later
 
     @property
@@ -172,6 +175,7 @@ class Bridge:
         *,
         vessel: Vessel | None = None,
         periodic: Sequence[PeriodicTask] = (),
+        loops: Sequence[tuple[str, Callable[[threading.Event], None]]] = (),
         level2_trace: Callable[[str], None] | None = None,
         modem_config: Mapping[str, object] | None = None,
         sms_options: Mapping[str, object] | None = None,
@@ -223,6 +227,7 @@ class Bridge:
                 records.append(dataclasses.replace(record, port=port))
             self.subscriber = SensorSubscriber(config.sensor_host, records, self.readings)
         self.periodic = list(periodic)
+        self.loops = list(loops)
         self.threads: list[threading.Thread] = []
         self.ticks = 0
 
@@ -252,6 +257,8 @@ class Bridge:
         self._thread("modem", lambda: self.sms.run(self.stop_event))
         if self.subscriber is not None:
             self._thread("sensors", self._serve_sensors)
+        for name, loop in self.loops:
+            self._thread(name, lambda loop=loop: loop(self.stop_event))
 
     def stop(self) -> None:
         """What SIGTERM/SIGINT do: set the flag (safe in a signal handler)."""

@@ -7,12 +7,15 @@ SIGINT only set a flag: the bridge stops its threads and writes what it holds (S
 
 from __future__ import annotations
 
+import dataclasses
 import signal
+import threading
+from collections.abc import Callable
 from typing import Any
 
 from django.core.management.base import BaseCommand, CommandError, CommandParser
 
-from sms.bridge.process import Bridge, BridgeConfig, PeriodicTask, parse_ports
+from sms.bridge.process import Bridge, BridgeConfig, parse_ports
 from vessels.models import Vessel
 
 
@@ -30,14 +33,14 @@ class Command(BaseCommand):
         add("--sensor-host", help="the payload board's address for the UDP data servers")
         add("--sensor-ports", type=parse_ports, help="record=port,… (default: the layout's)")
         add("--power-command", help="run on a power-down notice (default: log only)")
-        add("--upstream-url", help="shore server URL (WG_UPSTREAM_URL)")
-        add("--upstream-key", help="this vessel's key on the shore server (WG_UPSTREAM_KEY)")
+        add("--upstream-url", dest="shore_url", help="shore server URL (WG_SHORE_URL)")
+        add("--upstream-key", dest="shore_key", help="the glider's vessel key there (WG_SHORE_KEY)")
 
     def handle(self, *args: Any, **opts: Any) -> None:
         names = (
             "vessel", "level2_port", "modem_port", "poll_period_s", "reply_window_s",
-            "result_timeout_s", "sensor_host", "sensor_ports", "power_command", "upstream_url",
-            "upstream_key",
+            "result_timeout_s", "sensor_host", "sensor_ports", "power_command", "shore_url",
+            "shore_key",
         )  # fmt: skip
         try:
             config = BridgeConfig.from_env(**{name: opts.get(name) for name in names})
@@ -47,7 +50,7 @@ class Command(BaseCommand):
             vessel = Vessel.objects.get(slug=config.vessel)
         except Vessel.DoesNotExist:
             raise CommandError(f"no vessel {config.vessel!r}") from None
-        bridge = Bridge(config, vessel=vessel, periodic=shore_tasks(config, vessel))
+        bridge = Bridge(config, vessel=vessel, loops=shore_loops(config, vessel))
         for sig in (signal.SIGTERM, signal.SIGINT):
             signal.signal(sig, lambda _sig, _frame: bridge.stop())
         self.stdout.write(
@@ -58,8 +61,16 @@ class Command(BaseCommand):
         self.stdout.write("wg bridge stopped")
 
 
-def shore_tasks(config: BridgeConfig, vessel: Vessel) -> list[PeriodicTask]:
-    """The shore link's steps for the main loop, when an upstream is configured."""
-    if not config.upstream_url:
+def shore_loops(
+    config: BridgeConfig, vessel: Vessel
+) -> list[tuple[str, Callable[[threading.Event], None]]]:
+    """The shore link's loop (issue 11 §6, ``sms.bridge.shore``) when a shore is configured."""
+    if not config.shore_url:
         return []
-    raise CommandError("the shore link (--upstream-url) is not available in this build")
+    try:
+        from sms.bridge.shore import ShoreConfig, ShoreLink
+    except ImportError:
+        raise CommandError("this build has no shore link (sms.bridge.shore)") from None
+    base = ShoreConfig.from_env() or ShoreConfig(url=config.shore_url, key=config.shore_key)
+    shore = dataclasses.replace(base, url=config.shore_url, key=config.shore_key)
+    return [("shore", ShoreLink(vessel=vessel, config=shore).run)]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -61,7 +61,12 @@ class Rig:
 
 
 @contextmanager
-def running_bridge(glider: Vessel, modem_where: str = "pty", **config: object) -> Iterator[Rig]:
+def running_bridge(
+    glider: Vessel,
+    modem_where: str = "pty",
+    loops: Sequence[tuple[str, Callable[[threading.Event], None]]] = (),
+    **config: object,
+) -> Iterator[Rig]:
     cc_port = PtyPort(timeout=0.01)
     modem = SimulatedModem()
     server = ModemServer(modem, modem_where).start()
@@ -81,6 +86,7 @@ def running_bridge(glider: Vessel, modem_where: str = "pty", **config: object) -
         BridgeConfig(**settings),  # type: ignore[arg-type]
         vessel=glider,
         modem_config=FAST_MODEM,
+        loops=loops,
         sms_options={"retry_base_s": 0.1, "retry_max_s": 0.2},
     )
     thread = threading.Thread(target=bridge.run, daemon=True)

@@ -3,6 +3,8 @@ pseudo-terminals, the bridge's own threads in between (issue 11, Tests: end to e
 
 from __future__ import annotations
 
+import threading
+
 import pytest
 
 from commands.lifecycle import Status
@@ -132,3 +134,19 @@ def test_status_gives_the_boards_readings_and_the_cc_gets_them_too(glider: Vesse
     assert rig.texts()[0][1].endswith("0 pending, 21.0C 35%RH 100.0kPa leak 0/0")
     assert reply is not None
     assert StatusReply.from_bytes(reply.body).block.pressure_kpa == 100
+
+
+def test_a_loop_such_as_the_shore_link_runs_in_its_own_thread_until_the_stop(
+    glider: Vessel,
+) -> None:
+    seen: list[str] = []
+
+    def shore(stop: threading.Event) -> None:
+        seen.append(threading.current_thread().name)
+        stop.wait()
+        seen.append("stopped")
+
+    with running_bridge(glider, loops=[("shore", shore)]) as rig:
+        assert wait_for(lambda: seen)
+        assert rig.thread.is_alive()
+    assert seen == ["wg-shore", "stopped"]
