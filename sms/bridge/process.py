@@ -39,6 +39,7 @@ import serial
 from django.db import DatabaseError, close_old_connections, connection
 
 from edge_client import systemd
+from sms.level2.codec import Frame
 from sms.level2.payload import (
     CommandCompleted,
     Notification,
@@ -74,6 +75,20 @@ def _modem_port(url: str, baudrate: int = BAUDRATE) -> Any:
     """The modem's port with a short read timeout: the modem thread's poll is its granularity
     (sms_link.POLL_S), so that a reply released by the C&C's ACK starts within milliseconds."""
     return serial.serial_for_url(url, baudrate=baudrate, timeout=POLL_S)
+
+
+class HealingMachine(BridgeMachine):
+    """The bridge's machine, which gets the Level 2 thread a new database connection after an
+    error: nothing else in that thread would (close_old_connections runs per request in a web
+    server). Costs nothing until an error; then one ``SELECT 1`` decides (CONN_HEALTH_CHECKS)."""
+
+    def handle(self, frame: Frame) -> list[Frame]:
+        if connection.errors_occurred:
+            try:
+                connection.close_if_unusable_or_obsolete()
+            except DatabaseError:
+                connection.close()
+        return super().handle(frame)
 
 
 class PeriodicTask:
@@ -189,7 +204,7 @@ class Bridge:
             result_timeout_s=config.result_timeout_s,
             quarantine_s=config.quarantine_s,
         )
-        self.machine = BridgeMachine(
+        self.machine = HealingMachine(
             PayloadConfig(poll_period_s=config.poll_period_s),
             source=self.source,
             sensors=self.readings.state,

@@ -108,6 +108,8 @@ def test_sms_are_answered_after_the_database_drops_every_connection(glider: Vess
         pytest.skip("SQLite has no server to restart; run the suite with DATABASE_URL")
     authorise(glider)
     with running_bridge(glider) as rig:
+        sim = rig.cc()
+        sim.poll_once()  # the Level 2 thread has its connection
         rig.modem.inject(QUERY, "#FHEAD")
         assert wait_for(lambda: rig.modem.sent)
         with connection.cursor() as cursor:  # what a restart does to the bridge's connections
@@ -117,5 +119,18 @@ def test_sms_are_answered_after_the_database_drops_every_connection(glider: Vess
             )
         rig.modem.inject(QUERY, "#LIGHT")
         assert wait_for(lambda: len(rig.modem.sent) == 2, 20)
+        # The Level 2 thread lost its connection too: a status poll may flag nothing while it
+        # reconnects; the next one hands the command over.
+        rig.modem.inject(CONTROL, "#FHEAD 230")
+        assert wait_for(lambda: Command.objects.filter(vessel=glider).exists())
+        for _ in range(3):
+            sim.poll_once()
+            if sim.stats.commands:
+                break
+        assert wait_for(lambda: len(rig.modem.sent) == 3, 20)
         assert all(t.is_alive() for t in rig.bridge.threads)
-    assert [text for _, text in rig.texts()] == ["#FHEAD unknown", "#LIGHT unknown"]
+    assert [text for _, text in rig.texts()] == [
+        "#FHEAD unknown",
+        "#LIGHT unknown",
+        "#FHEAD 230 OK",
+    ]
