@@ -30,6 +30,7 @@ import threading
 import time
 from collections.abc import Callable
 
+from sms.level2.simulator import QUEUED_DELAY_S
 from sms.modem.simulator import SimulatedModem  # no Django
 
 PERIOD_S = 1
@@ -245,7 +246,8 @@ def main(argv: list[str] | None = None) -> int:
     show("SMS arrives → command queued in the database", sms_store, [])
     show("bridge's own time, SMS → C&C (the two above)", own, [])
     show(
-        f"SMS arrives → inner command at the C&C (poll period {args.period} s)",
+        f"SMS arrives → inner command at the C&C (poll period {args.period} s, then the "
+        f"C&C's own {QUEUED_DELAY_S:g} s before its request, level2.md §9)",
         bridge_handover.total_ms,
         [],
     )
