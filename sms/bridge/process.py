@@ -232,6 +232,7 @@ class Bridge:
             modem=self.modem,
             reply_window_s=config.reply_window,
             readings=self.readings.snapshot,
+            refresh=self.fixes.flush,
             **dict(sms_options or {}),  # type: ignore[arg-type]
         )
         self.subscriber: SensorSubscriber | None = None

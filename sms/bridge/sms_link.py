@@ -69,6 +69,7 @@ class SmsLink:
         modem: Modem,
         reply_window_s: float = 0.0,
         readings: Callable[[], Mapping[str, float]] | None = None,
+        refresh: Callable[[], object] | None = None,
         table: InnerCommandTable | None = None,
         poll_s: float = POLL_S,
         retry_base_s: float = RETRY_BASE_S,
@@ -81,6 +82,7 @@ class SmsLink:
         self.modem = modem
         self.reply_window_s = reply_window_s
         self.readings = readings
+        self.refresh = refresh
         self.table = table
         self.poll_s = poll_s
         self.retry_base_s = retry_base_s
@@ -174,6 +176,8 @@ class SmsLink:
     # -- helpers --------------------------------------------------------------------------------
 
     def _store(self, sms: ReceivedSms) -> None:
+        if self.refresh is not None:
+            self.refresh()  # the glider's latest fix written first: #STATUS gives it
         result = sms_handle_incoming(
             vessel=self.vessel,
             number=sms.number,
