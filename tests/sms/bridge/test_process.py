@@ -14,6 +14,7 @@ from sms.bridge.sensor_standin import CAPTURED, RecordServer
 from sms.level2.bodies import StatusReply
 from sms.level2.runner import SerialLink
 from sms.models import Direction, Outcome, SendStatus, SmsMessage
+from telemetry.models import Fix
 from vessels.models import Vessel
 
 from .conftest import status
@@ -149,3 +150,13 @@ def test_a_loop_such_as_the_shore_link_runs_in_its_own_thread_until_the_stop(
         assert wait_for(lambda: seen)
         assert rig.thread.is_alive()
     assert seen == ["wg-shore", "stopped"]
+
+
+def test_a_clean_stop_writes_the_fixes_it_held(glider: Vessel) -> None:
+    with running_bridge(glider) as rig:
+        sim = rig.cc()
+        sim.poll_once()
+        sim.poll_once()  # a fix, held in memory for its batch
+        assert wait_for(lambda: rig.bridge.fixes.pending)
+        assert not Fix.objects.filter(vessel=glider).exists()
+    assert Fix.objects.filter(vessel=glider).count() == 1

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -56,7 +57,9 @@ def plumbing() -> Iterator[tuple[PtyPort, SimulatedModem, ModemServer]]:
         cc_port.close()
 
 
-def start_bridge(glider: Vessel, cc_port: PtyPort, server: ModemServer) -> subprocess.Popen:
+def start_bridge(
+    glider: Vessel, cc_port: PtyPort, server: ModemServer, **extra: str
+) -> subprocess.Popen:
     env = {
         **os.environ,
         "DATABASE_URL": database_url(),
@@ -68,6 +71,7 @@ def start_bridge(glider: Vessel, cc_port: PtyPort, server: ModemServer) -> subpr
         "WG_RESULT_TIMEOUT_S": "60",
         "WG_TICK_S": "0.1",
         "WG_RECONNECT_DELAY_S": "0.1",
+        **extra,
     }
     return subprocess.Popen(
         [sys.executable, "manage.py", "run_wg_bridge"],
@@ -174,3 +178,18 @@ def test_killed_between_the_handover_and_the_ack_nothing_is_handed_over_twice(
     assert [s.text for s in modem.sent] == ["#FHEAD 230 OK"]
     reply = SmsMessage.objects.get(direction=Direction.OUT)
     assert reply.status == SendStatus.SENT
+
+
+def test_under_systemd_it_says_ready_and_stopping(glider: Vessel, tmp_path: Path) -> None:
+    address = str(tmp_path / "notify")
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    sock.bind(address)
+    sock.settimeout(20)
+    with plumbing() as (cc_port, _modem, server):
+        bridge = start_bridge(glider, cc_port, server, NOTIFY_SOCKET=address)
+        try:
+            assert sock.recv(1024).startswith(b"READY=1")
+        finally:
+            stop(bridge)
+        assert sock.recv(1024) == b"STOPPING=1"
+    sock.close()
