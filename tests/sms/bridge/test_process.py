@@ -4,6 +4,7 @@ pseudo-terminals, the bridge's own threads in between (issue 11, Tests: end to e
 from __future__ import annotations
 
 import threading
+from pathlib import Path
 
 import pytest
 
@@ -12,6 +13,7 @@ from commands.models import Command
 from sms.bridge.records import RecordTable
 from sms.bridge.sensor_standin import CAPTURED, RecordServer
 from sms.level2.bodies import StatusReply
+from sms.level2.codec import BROADCAST, CC_MAIN, Frame, MessageType
 from sms.level2.runner import SerialLink
 from sms.models import Direction, Outcome, SendStatus, SmsMessage
 from telemetry.models import Fix
@@ -160,3 +162,13 @@ def test_a_clean_stop_writes_the_fixes_it_held(glider: Vessel) -> None:
         assert wait_for(lambda: rig.bridge.fixes.pending)
         assert not Fix.objects.filter(vessel=glider).exists()
     assert Fix.objects.filter(vessel=glider).count() == 1
+
+
+def test_a_power_down_notice_runs_the_configured_command(glider: Vessel, tmp_path: Path) -> None:
+    marker = tmp_path / "powered-down"
+    with running_bridge(glider, power_command=f"touch {marker}") as rig:
+        notice = Frame.make(MessageType.POWER, b"\x01\x00", tid=0x30, dest=BROADCAST, src=CC_MAIN)
+        SerialLink(rig.cc_port).send(bytes(notice))
+        assert wait_for(marker.exists)
+    (outcome,) = rig.bridge.dispatch.power_downs
+    assert outcome.returncode == 0 and "fixes" in outcome.flushed
