@@ -3,10 +3,14 @@ errors (STYLE.md §12)."""
 
 from __future__ import annotations
 
+import importlib.util
+
 import pytest
 from django.core.management import CommandError, call_command
 
 from sms.bridge.process import REPLY_MARGIN_S, BridgeConfig, parse_ports
+from sms.management.commands.run_wg_bridge import shore_loops
+from vessels.models import Vessel
 
 PORTS = {"vessel": "glider", "level2_port": "/dev/ttyAMA0", "modem_port": "/dev/ttyUSB2"}
 
@@ -62,3 +66,14 @@ def test_the_command_names_a_missing_vessel(monkeypatch: pytest.MonkeyPatch) -> 
         call_command("run_wg_bridge", vessel="nowhere", level2_port="loop://", modem_port="loop://")
     with pytest.raises(CommandError, match="vessel is required"):
         call_command("run_wg_bridge", level2_port="loop://", modem_port="loop://")
+
+
+@pytest.mark.django_db
+def test_the_shore_link_runs_only_when_a_shore_is_configured(glider: Vessel) -> None:
+    assert shore_loops(BridgeConfig(**PORTS), glider) == []
+    config = BridgeConfig(**PORTS, shore_url="https://shore.example", shore_key="k")
+    if importlib.util.find_spec("sms.bridge.shore") is None:
+        with pytest.raises(CommandError, match="no shore link"):
+            shore_loops(config, glider)
+    else:  # merged with the shore link (issue 11 §6): its loop runs in a thread of its own
+        assert [name for name, _loop in shore_loops(config, glider)] == ["shore"]
