@@ -68,7 +68,8 @@ def shore_loops(
     if not config.shore_url:
         return []
     try:
-        from sms.bridge.shore import ShoreConfig, ShoreLink
+        from sms.bridge.shore import ShoreLink
+        from sms.bridge.shore_config import ShoreConfig
     except ImportError:
         raise CommandError("this build has no shore link (sms.bridge.shore)") from None
     base = ShoreConfig.from_env() or ShoreConfig(url=config.shore_url, key=config.shore_key)
