@@ -20,4 +20,5 @@ bench:           ## server, maps, Level 2, SMS, bridge and edge client benchmark
 	.venv/bin/python -m bench.level2
 	.venv/bin/python -m bench.sms
 	.venv/bin/python -m bench.bridge
+	.venv/bin/python -m bench.wg_bridge
 	.venv/bin/python -m bench.edge

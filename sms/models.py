@@ -60,6 +60,8 @@ class Outcome(models.TextChoices):
 class SendStatus(models.TextChoices):
     """Where an outgoing SMS stands; the modem loop sends the pending ones."""
 
+    # A reply held back for the commands' outcome until ``due_at`` (sms_replies_due).
+    WAITING = "waiting", "waiting for the outcome"
     PENDING = "pending", "pending"
     SENT = "sent", "sent"
     FAILED = "failed", "failed"
@@ -108,6 +110,8 @@ class SmsMessage(models.Model):
         max_length=20, blank=True, help_text="The modem's +CMGS reference."
     )
     sent_at = models.DateTimeField(null=True, blank=True)
+    # A waiting reply goes out at this time whatever its commands did; empty: when they end.
+    due_at = models.DateTimeField(null=True, blank=True)
 
     class Meta:
         ordering = ["-created_at", "-pk"]

@@ -71,6 +71,7 @@ PURE = [
     "sms/gsm7.py",
     "fleet/map_actions.py",
     "sms/language.py",
+    "sms/replies.py",
     "sms/errors.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",
