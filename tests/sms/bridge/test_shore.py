@@ -17,17 +17,26 @@ import socket
 import sqlite3
 import subprocess
 import sys
+import threading
 import time
 import urllib.request
 from pathlib import Path
 
 import pytest
+from django.db import connections
 from django.utils import timezone
 
 from commands.models import Command
 from sms.bridge.commands import DatabaseCommandSource
+from sms.bridge.dispatch import Dispatcher
+from sms.bridge.fixes import FixRecorder
+from sms.bridge.machine import BridgeMachine
 from sms.bridge.shore import CREATED_BY, FIX_WATERMARK, SMS_WATERMARK, ShoreConfig, ShoreLink
+from sms.level2.payload import PayloadConfig
+from sms.level2.runner import PayloadRunner, PtyPort, SerialLink
+from sms.level2.simulator import CcSimulator, SimConfig, VirtualClock
 from sms.services import sms_handle_incoming, sms_mark_sent, sms_outgoing_pending
+from telemetry.models import Fix
 from telemetry.services import fix_ingest
 from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import ROOT, TcpProxy, start, stop, wait_until
@@ -297,3 +306,57 @@ def test_no_failure_reaches_the_caller_when_the_shore_never_answered(tmp_path, g
     assert shore_link.state.reachable is False and shore_link.state.down_until > started
     assert shore_link.do_one() is False  # backing off: nothing tried
     shore_link.close()
+
+
+@pytest.mark.django_db(transaction=True)
+def test_a_shore_command_reaches_the_cc_through_a_pty_and_ends_done_on_the_shore(
+    shore, link, glider
+):
+    """The whole way: shore → link → local queue → Level 2 (C&C simulator on a pty) → ACK →
+    ack to the shore; the C&C's positions go up as the glider's fixes."""
+    uid = shore.django(
+        "from commands.services import command_enqueue\n"
+        "from vessels.models import Vessel\n"
+        "c = command_enqueue(vessel=Vessel.objects.get(slug='glider'), kind='fhead',"
+        " params={'bearing': 230})\n"
+        "print(c.uid)"
+    )
+    settle(link)
+    pty = PtyPort(timeout=0.01)
+    source = DatabaseCommandSource(vessel=glider)
+    machine = BridgeMachine(PayloadConfig(poll_period_s=1), source=source)
+    fixes = FixRecorder(vessel=glider, batch_size=1)
+    dispatch = Dispatcher(machine=machine, source=source, fixes=fixes)
+    runner = PayloadRunner(pty.name, machine, reconnect_delay_s=0.05, on_notification=dispatch)
+
+    def serve() -> None:
+        try:
+            runner.run()
+        finally:
+            connections.close_all()  # this thread's own connection
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        assert runner.connected.wait(5)
+        config = SimConfig(period_s=1.0, reply_wait_s=2.0, silence_wait_s=0.02)
+        sim = CcSimulator(SerialLink(pty), config, VirtualClock())
+        assert sim.enumerate()
+        for _ in range(4):
+            sim.clock.sleep(1.0)
+            sim.poll_once()
+        (packet,) = sim.stats.commands
+        assert int.from_bytes(packet.params[3:5], "little") == 230
+        local = Command.objects.get(uid=uid)
+        wait_until(lambda: local.refresh_from_db() or local.status == "done", 10, "the ACK")
+        fixes.flush()
+    finally:
+        runner.stop()
+        thread.join(5)
+        pty.close()
+    settle(link)
+    rows = shore.sql("SELECT status, result_detail FROM commands_command WHERE uid = ?",
+                     uid.replace("-", ""))  # fmt: skip
+    assert rows == [("done", "C&C: ACK (accepted)")]
+    local_fixes = Fix.objects.filter(vessel=glider).count()
+    assert local_fixes > 0 and len(shore_fix_times(shore)) == local_fixes
