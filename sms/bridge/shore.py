@@ -71,6 +71,16 @@ SMS_WATERMARK = "shore_sms_watermark"  # the last local SmsMessage id uploaded
 HANDED_OVER = (Status.SENT, Status.ACKNOWLEDGED)  # local statuses acked as "acknowledged"
 
 
+# ShoreConfig field ← environment variable (seconds).
+_PERIODS = (
+    ("timeout_s", "WG_SHORE_TIMEOUT_S"),
+    ("push_period_s", "WG_SHORE_PUSH_PERIOD_S"),
+    ("poll_period_s", "WG_SHORE_POLL_PERIOD_S"),
+    ("numbers_period_s", "WG_SHORE_NUMBERS_PERIOD_S"),
+    ("sms_period_s", "WG_SHORE_SMS_PERIOD_S"),
+)
+
+
 @dataclass(frozen=True)
 class ShoreConfig:
     """Where the shore is and how often to talk to it (environment: see :meth:`from_env`)."""
@@ -96,17 +106,17 @@ class ShoreConfig:
         url, key = env.get("WG_SHORE_URL", "").strip(), env.get("WG_SHORE_KEY", "").strip()
         if not url or not key:
             return None
-        number = {
-            name: float(env[var])
-            for name, var in (
-                ("timeout_s", "WG_SHORE_TIMEOUT_S"),
-                ("push_period_s", "WG_SHORE_PUSH_PERIOD_S"),
-                ("poll_period_s", "WG_SHORE_POLL_PERIOD_S"),
-                ("numbers_period_s", "WG_SHORE_NUMBERS_PERIOD_S"),
-                ("sms_period_s", "WG_SHORE_SMS_PERIOD_S"),
-            )
-            if env.get(var, "").strip()
-        }
+        number: dict[str, float] = {}
+        for name, var in _PERIODS:
+            raw = env.get(var, "").strip()
+            if not raw:
+                continue
+            try:
+                number[name] = float(raw)
+            except ValueError:
+                raise ValueError(f"{var}={raw!r} is not a number of seconds") from None
+            if not number[name] > 0:
+                raise ValueError(f"{var}={raw!r} must be more than 0 seconds")
         return cls(
             url=url,
             key=key,
