@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from django.db import DatabaseError
+from django.db import DatabaseError, close_old_connections, connections
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
@@ -210,10 +210,12 @@ class ShoreLink:
         log.info("shore link to %s for %s", self.config.url, self.vessel.slug)
         try:
             while not stop.is_set():
+                close_old_connections()  # a long-lived thread: drop a broken or stale one
                 if not self.do_one():
                     stop.wait(idle_s)
         finally:
             self.close()
+            connections.close_all()  # this thread's own connection
 
     def kick(self) -> None:
         """Make every step due now (a test, or the bridge after a power-up)."""
@@ -282,10 +284,10 @@ class ShoreLink:
                 TELEMETRY_PATH, {"fixes": [fix_wire(f) for f in fixes]}
             )
         except TransportError as exc:
-            if exc.status != 400 or len(fixes) > 1:
-                if exc.status == 400:  # one poisoned fix: go one at a time to find it
-                    return self._push_one_by_one(fixes)
+            if exc.status != 400:
                 raise
+            if len(fixes) > 1:  # the body refused whole: go one at a time to find the culprit
+                return self._push_one_by_one(fixes)
             log.warning("shore refuses local fix %d (%s); skipping it", ids[0], exc)
             self._set_counter(FIX_WATERMARK, ids[0])
             return True

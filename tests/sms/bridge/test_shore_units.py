@@ -3,6 +3,9 @@ acks it queues for local outcomes. (Against a live shore: test_shore.py.)"""
 
 from __future__ import annotations
 
+import threading
+import time
+
 import pytest
 
 from commands.services import command_cancel, command_enqueue
@@ -110,3 +113,20 @@ def test_a_shore_command_not_found_here_is_reported_lost(offline_link):
     offline_link.do_one_report_results()
     (ack,) = offline_link.outbox.peek("ack", 10)
     assert (ack.body["status"], ack.body["detail"]) == ("failed", "lost on the glider")
+
+
+@pytest.mark.django_db(transaction=True)
+def test_run_keeps_going_without_a_shore_and_stops_when_asked(tmp_path, glider):
+    """Nothing listens at the URL: the thread logs, backs off, and ends at the stop flag."""
+    config = ShoreConfig(url="http://127.0.0.1:9", key="k", outbox_path=str(tmp_path / "o.db"))
+    link = ShoreLink(vessel=glider, config=config)
+    stop = threading.Event()
+    thread = threading.Thread(target=link.run, args=(stop,), kwargs={"idle_s": 0.05})
+    thread.start()
+    deadline = time.monotonic() + 10
+    while link.state.reachable is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    stop.set()
+    thread.join(10)
+    assert not thread.is_alive()
+    assert link.state.reachable is False and link.state.failures >= 1
