@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 
 import pytest
 
@@ -123,3 +124,28 @@ def test_an_upload_that_is_not_a_list_is_a_400(glider_boat):
     response = glider_boat.post(SMS, {"text": "hello"}, format="json")
     assert response.status_code == 400
     assert response.json()["error"]
+
+
+@pytest.mark.parametrize(
+    "odd",
+    [
+        {"text": "nul\x00here"},
+        {"text": "lone \ud800 surrogate"},
+        {"id": "x" * 65},
+        {"created_at": "yesterday"},
+        {"commands": "not-a-list"},
+        {"commands": ["not-a-uid"]},
+        {"parsed": [1, 2]},
+        {"direction": "sideways"},
+        {"number": ""},
+        {"outcome": "stranger", "direction": "out", "status": "sent"},
+    ],
+)
+def test_an_odd_entry_is_rejected_by_index_and_never_a_500(glider_boat, odd):
+    # Encoded here with ASCII escapes: a lone surrogate is valid JSON, not valid UTF-8.
+    body = json.dumps([entry("ok"), entry("odd", **odd)])
+    answer = glider_boat.post(SMS, body, content_type="application/json")
+    assert answer.status_code == 200
+    body = answer.json()
+    assert body["accepted"] + len(body["rejected"]) == 2
+    assert body["accepted"] >= 1
