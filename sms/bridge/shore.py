@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from django.conf import settings
 from django.db import DatabaseError, close_old_connections, connections
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
@@ -68,6 +69,7 @@ ACK_DROP_STATUSES = frozenset({400, 404, 409})
 CREATED_BY = "shore"  # a local command queued from the shore: created_by and event actor
 FIX_WATERMARK = "shore_fix_watermark"  # outbox counters: the last local Fix id settled
 SMS_WATERMARK = "shore_sms_watermark"  # the last local SmsMessage id uploaded
+OUTBOX_NAME = "wg-shore-outbox.sqlite3"
 HANDED_OVER = (Status.SENT, Status.ACKNOWLEDGED)  # local statuses acked as "acknowledged"
 
 
@@ -87,7 +89,7 @@ class ShoreConfig:
 
     url: str
     key: str
-    outbox_path: str = "data/wg-shore-outbox.sqlite3"
+    outbox_path: str = ""  # empty: OUTBOX_NAME in the data folder (settings.DATA_DIR)
     ca_bundle: str | None = None
     timeout_s: float = 20.0
     push_period_s: float = 10.0
@@ -173,8 +175,7 @@ class ShoreLink:
             ca_bundle=config.ca_bundle,
         )
         if outbox is None:
-            Path(config.outbox_path).parent.mkdir(parents=True, exist_ok=True)
-            outbox = Outbox(config.outbox_path)
+            outbox = Outbox(config.outbox_path or Path(settings.DATA_DIR) / OUTBOX_NAME)
         self.outbox = outbox
         self.clock = clock
         self.state = LinkState()
