@@ -182,6 +182,7 @@ class ShoreLink:
         self.commands_etag: str | None = None
         self.numbers_etag: str | None = None
         self._handed_over_acked: set[str] = set()
+        self._closed = False
         self._steps = [
             _Step(self.do_one_report_results, config.push_period_s, needs_link=False),
             _Step(self.do_one_flush_acks, config.push_period_s),
@@ -225,6 +226,10 @@ class ShoreLink:
         self.state.down_until = 0.0
 
     def close(self) -> None:
+        """Close the transport and the outbox; a second call does nothing."""
+        if self._closed:
+            return
+        self._closed = True
         self.transport.close()
         self.outbox.close()
 

@@ -130,3 +130,4 @@ def test_run_keeps_going_without_a_shore_and_stops_when_asked(tmp_path, glider):
     thread.join(10)
     assert not thread.is_alive()
     assert link.state.reachable is False and link.state.failures >= 1
+    link.close()  # the bridge may close it again after run() did: harmless
