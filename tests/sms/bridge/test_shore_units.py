@@ -9,7 +9,8 @@ import time
 import pytest
 
 from commands.services import command_cancel, command_enqueue
-from sms.bridge.shore import CREATED_BY, ShoreConfig, ShoreLink
+from sms.bridge.shore import CREATED_BY, ShoreLink
+from sms.bridge.shore_config import ShoreConfig
 from sms.models import AuthorisedNumber
 from sms.services import authorised_number_authorise, authorised_numbers_replace
 
