@@ -163,11 +163,13 @@ def command_enqueue(
     created_by: str = "",
     expires_at: dt.datetime | None = None,
     now: dt.datetime | None = None,
+    uid: uuid.UUID | None = None,
 ) -> Command:
     """Validate through the catalog and queue a command; raises CatalogError or CommandError.
 
     A new navigation command supersedes the vessel's older queued navigation commands: only
-    the newest navigation order may reach the boat.
+    the newest navigation order may reach the boat. ``uid`` keeps a command's identity from
+    elsewhere (a glider queues its shore's commands under the shore's uid); a new one otherwise.
     """
     now = now or timezone.now()
     valid, expires_at = command_validate(
@@ -184,6 +186,8 @@ def command_enqueue(
         expires_at=expires_at,
         status=Status.QUEUED,
     )
+    if uid is not None:
+        command.uid = uid
     command.full_clean()
     command.save()
     CommandEvent.objects.create(

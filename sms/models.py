@@ -10,6 +10,7 @@ from vessels.models import Vessel
 
 E164_MAX = 16  # "+" and at most 15 digits (ITU-T E.164)
 RAW_NUMBER_MAX = 40  # what a modem reports as the sender: a number, or an alphanumeric name
+ORIGIN_ID_MAX = 64
 
 
 class Role(models.TextChoices):
@@ -112,6 +113,14 @@ class SmsMessage(models.Model):
     sent_at = models.DateTimeField(null=True, blank=True)
     # A waiting reply goes out at this time whatever its commands did; empty: when they end.
     due_at = models.DateTimeField(null=True, blank=True)
+    # On the shore: the glider's own id for an entry of its SMS log uploaded through the boat
+    # API (POST /api/v1/boat/sms/), unique per vessel so that a re-sent upload is a no-op.
+    origin_id = models.CharField(
+        max_length=ORIGIN_ID_MAX,
+        null=True,
+        blank=True,
+        help_text="Uploaded from the vessel's own log: its id there.",
+    )
 
     class Meta:
         ordering = ["-created_at", "-pk"]
@@ -137,6 +146,11 @@ class SmsMessage(models.Model):
             models.CheckConstraint(
                 condition=Q(direction="in", status="") | Q(direction="out") & ~Q(status=""),
                 name="sms_status_for_outgoing_only",
+            ),
+            models.UniqueConstraint(
+                fields=["vessel", "origin_id"],
+                condition=Q(origin_id__isnull=False),
+                name="sms_unique_origin_per_vessel",
             ),
         ]
 

@@ -80,6 +80,7 @@ PURE = [
     "sms/level2/payload.py",
     "sms/bridge/records.py",
     "sms/bridge/machine.py",
+    "sms/bridge/shore_config.py",
     "sms/modem/at.py",
     "sms/modem/errors.py",
     "edge_client/catalog.py",

@@ -16,6 +16,8 @@ from typing import Any
 from django.core.management.base import BaseCommand, CommandError, CommandParser
 
 from sms.bridge.process import Bridge, BridgeConfig, parse_ports
+from sms.bridge.shore import ShoreLink
+from sms.bridge.shore_config import ShoreConfig
 from vessels.models import Vessel
 
 
@@ -67,11 +69,6 @@ def shore_loops(
     """The shore link's loop (issue 11 §6, ``sms.bridge.shore``) when a shore is configured."""
     if not config.shore_url:
         return []
-    try:
-        from sms.bridge.shore import ShoreLink
-        from sms.bridge.shore_config import ShoreConfig
-    except ImportError:
-        raise CommandError("this build has no shore link (sms.bridge.shore)") from None
     base = ShoreConfig.from_env() or ShoreConfig(url=config.shore_url, key=config.shore_key)
     shore = dataclasses.replace(base, url=config.shore_url, key=config.shore_key)
     return [("shore", ShoreLink(vessel=vessel, config=shore).run)]

@@ -3,8 +3,6 @@ errors (STYLE.md §12)."""
 
 from __future__ import annotations
 
-import importlib.util
-
 import pytest
 from django.core.management import CommandError, call_command
 
@@ -72,8 +70,5 @@ def test_the_command_names_a_missing_vessel(monkeypatch: pytest.MonkeyPatch) -> 
 def test_the_shore_link_runs_only_when_a_shore_is_configured(glider: Vessel) -> None:
     assert shore_loops(BridgeConfig(**PORTS), glider) == []
     config = BridgeConfig(**PORTS, shore_url="https://shore.example", shore_key="k")
-    if importlib.util.find_spec("sms.bridge.shore") is None:
-        with pytest.raises(CommandError, match="no shore link"):
-            shore_loops(config, glider)
-    else:  # merged with the shore link (issue 11 §6): its loop runs in a thread of its own
-        assert [name for name, _loop in shore_loops(config, glider)] == ["shore"]
+    # The shore link (issue 11 §6) runs its loop in a thread of its own.
+    assert [name for name, _loop in shore_loops(config, glider)] == ["shore"]
