@@ -164,11 +164,13 @@ def command_enqueue(
     created_by: str = "",
     expires_at: dt.datetime | None = None,
     now: dt.datetime | None = None,
+    uid: uuid.UUID | None = None,
 ) -> Command:
     """Validate through the catalog and queue a command; raises CatalogError or CommandError.
 
     A new navigation command supersedes the vessel's older queued navigation commands: only
-    the newest navigation order may reach the boat.
+    the newest navigation order may reach the boat. ``uid`` keeps a command's identity from
+    elsewhere (a glider queues its shore's commands under the shore's uid); a new one otherwise.
 
     Every refusal is raised before the transaction starts, so a caller inside its own
     transaction (the SMS handling) can answer it and go on; the writes then need no savepoint
@@ -188,9 +190,14 @@ def command_enqueue(
         expires_at=expires_at,
         status=Status.QUEUED,
     )
-    # The field checks without their queries: the vessel is the loaded row (its foreign key
-    # check would re-read it) and the uid a fresh uuid4 (the unique index still guards it).
-    command.full_clean(exclude=["vessel"], validate_unique=False, validate_constraints=False)
+    if uid is not None:
+        command.uid = uid
+    # The field checks without the foreign key's query (the vessel is the loaded row); the uid
+    # is checked for uniqueness only when it comes from elsewhere (a fresh uuid4 cannot clash,
+    # and the unique index still guards it).
+    command.full_clean(
+        exclude=["vessel"], validate_unique=uid is not None, validate_constraints=False
+    )
     with transaction.atomic(savepoint=False):
         if valid.navigation:
             _serialise_navigation_enqueues(vessel.pk)

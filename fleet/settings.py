@@ -212,6 +212,7 @@ TEMPLATES = [
                 "django.template.context_processors.request",
                 "django.contrib.auth.context_processors.auth",
                 "django.contrib.messages.context_processors.messages",
+                "fleet.context_processors.maps",
             ],
         },
     },
@@ -321,10 +322,16 @@ REST_KNOX = {"TOKEN_MODEL": KNOX_TOKEN_MODEL, "TOKEN_PREFIX": "sst_", "AUTH_HEAD
 # to auth_user that makes flush's TRUNCATE fail on PostgreSQL.
 MIGRATION_MODULES = {"knox": None}
 
-# Map tiles come from a configurable URL; with none reachable the map still shows tracks.
+# Map tiles come from a configurable URL; empty means no tile layer at all (at sea): the maps
+# still show vessels, tracks and waypoints on a plain background with a scale bar, a lat/lon
+# graticule and the coordinates under the cursor. The map pages add the tile layer themselves
+# (fleet.context_processors.maps, read per request), so django-leaflet adds none.
 MAP_TILES_URL = os.environ.get("MAP_TILES_URL", "https://tile.openstreetmap.org/{z}/{x}/{y}.png")
+MAP_TILES_ATTRIBUTION = os.environ.get("MAP_TILES_ATTRIBUTION", "© OpenStreetMap contributors")
+# Seconds between the fleet map's polls of /api/v1/fleet/ (a 304 when nothing changed).
+FLEET_MAP_POLL_S = env_int("FLEET_MAP_POLL_S", 5)
 LEAFLET_CONFIG = {
-    "TILES": [("Map", MAP_TILES_URL, {"attribution": "© OpenStreetMap contributors"})],
+    "TILES": [],
     "DEFAULT_CENTER": (-32.0, 115.75),
     "DEFAULT_ZOOM": 9,
     "RESET_VIEW": False,

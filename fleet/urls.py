@@ -6,6 +6,7 @@ from drf_spectacular.views import SpectacularAPIView, SpectacularSwaggerView
 from rest_framework.permissions import IsAuthenticated
 
 from commands.api import urls as command_urls
+from sms.api import urls as sms_urls
 from telemetry.api import urls as telemetry_urls
 
 admin.site.site_header = "Shoreside"
@@ -15,6 +16,7 @@ admin.site.index_title = "Fleet"
 api_v1 = [
     path("", include(telemetry_urls.urlpatterns)),
     path("", include(command_urls.urlpatterns)),
+    path("", include(sms_urls.urlpatterns)),
     path(
         "schema/", SpectacularAPIView.as_view(permission_classes=[IsAuthenticated]), name="schema"
     ),

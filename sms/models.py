@@ -10,6 +10,7 @@ from vessels.models import Vessel
 
 E164_MAX = 16  # "+" and at most 15 digits (ITU-T E.164)
 RAW_NUMBER_MAX = 40  # what a modem reports as the sender: a number, or an alphanumeric name
+ORIGIN_ID_MAX = 64
 
 
 class Role(models.TextChoices):
@@ -60,6 +61,8 @@ class Outcome(models.TextChoices):
 class SendStatus(models.TextChoices):
     """Where an outgoing SMS stands; the modem loop sends the pending ones."""
 
+    # A reply held back for the commands' outcome until ``due_at`` (sms_replies_due).
+    WAITING = "waiting", "waiting for the outcome"
     PENDING = "pending", "pending"
     SENT = "sent", "sent"
     FAILED = "failed", "failed"
@@ -108,6 +111,16 @@ class SmsMessage(models.Model):
         max_length=20, blank=True, help_text="The modem's +CMGS reference."
     )
     sent_at = models.DateTimeField(null=True, blank=True)
+    # A waiting reply goes out at this time whatever its commands did; empty: when they end.
+    due_at = models.DateTimeField(null=True, blank=True)
+    # On the shore: the glider's own id for an entry of its SMS log uploaded through the boat
+    # API (POST /api/v1/boat/sms/), unique per vessel so that a re-sent upload is a no-op.
+    origin_id = models.CharField(
+        max_length=ORIGIN_ID_MAX,
+        null=True,
+        blank=True,
+        help_text="Uploaded from the vessel's own log: its id there.",
+    )
 
     class Meta:
         ordering = ["-created_at", "-pk"]
@@ -133,6 +146,11 @@ class SmsMessage(models.Model):
             models.CheckConstraint(
                 condition=Q(direction="in", status="") | Q(direction="out") & ~Q(status=""),
                 name="sms_status_for_outgoing_only",
+            ),
+            models.UniqueConstraint(
+                fields=["vessel", "origin_id"],
+                condition=Q(origin_id__isnull=False),
+                name="sms_unique_origin_per_vessel",
             ),
         ]
 

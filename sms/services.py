@@ -10,7 +10,7 @@ import functools
 import hashlib
 import logging
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,13 +19,14 @@ from django.conf import settings
 from django.core.exceptions import ValidationError
 from django.db import IntegrityError, connection, transaction
 from django.utils import timezone
+from django.utils.dateparse import parse_datetime
 
 from commands import catalog
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import Status
 from commands.models import Command, Source
 from commands.services import command_enqueue
-from sms import language, selectors
+from sms import language, replies, selectors
 from sms.errors import InvalidNumber, NumberNotFound
 from sms.language import Answer, Item, ItemKind
 from sms.level2.inner import InnerCommandTable
@@ -117,6 +118,8 @@ def sms_handle_incoming(
     modem_timestamp: dt.datetime | None = None,
     table: InnerCommandTable | None = None,
     send_replies: bool = True,
+    reply_window_s: float = 0.0,
+    readings: Mapping[str, float] | None = None,
 ) -> SmsOutcome:
     """Handle one SMS that reached ``vessel``'s modem; the one way in for every SMS.
 
@@ -130,6 +133,10 @@ def sms_handle_incoming(
     5. Commands are queued (source ``sms``, created by the number), queries answered from
        the vessel's known state, and one reply is stored as pending for the modem
        (``send_replies=False``: stored as not to be sent, for ``sms_inject``).
+    6. With a ``reply_window_s`` (the bridge's), a reply with commands is held as ``waiting``
+       for their outcome until the window passes (:func:`sms_replies_due`), so that it can
+       say ``OK`` or ``FAILED …`` rather than ``QUEUED``. ``readings`` (the glider's live
+       sensor readings) answer ``#STATUS`` before the last fix's.
 
     Everything is written in one transaction.
     """
@@ -151,6 +158,8 @@ def sms_handle_incoming(
                 key=key,
                 table=table if vessel.kind == WAVE_GLIDER else None,
                 send_replies=send_replies,
+                reply_window_s=reply_window_s,
+                readings=readings,
             )
     except IntegrityError:
         # Two deliveries of one SMS racing: the other one committed first.
@@ -195,6 +204,8 @@ def _handle(
     key: str | None,
     table: InnerCommandTable | None,
     send_replies: bool,
+    reply_window_s: float = 0.0,
+    readings: Mapping[str, float] | None = None,
 ) -> SmsOutcome:
     e164 = _e164_or_blank(number)
     message = SmsMessage(
@@ -222,10 +233,16 @@ def _handle(
     if entry.role != Role.CONTROL and any(item.commanding for item in items):
         return _logged(message, Outcome.REFUSED, "query role: may not command")
     message.authorised = True
-    answers, commands = _carry_out(items, vessel=vessel, sender=e164, now=received_at)
+    answers, queued = _carry_out(
+        items, vessel=vessel, sender=e164, now=received_at, readings=readings
+    )
+    commands = [command for _, command in queued]
     message.outcome = Outcome.ERROR if any(a.error for a in answers) else Outcome.ACCEPTED
     # Built here from bounded values; full_clean() would cost a query per foreign key.
     message.save()
+    by_answer = {index: command.pk for index, command in queued}
+    status = SendStatus.PENDING if send_replies else SendStatus.NOT_SENT
+    hold = send_replies and reply_window_s > 0 and any(c.status in _OPEN_STATUSES for c in commands)
     reply = SmsMessage.objects.create(
         direction=Direction.OUT,
         vessel=vessel,
@@ -234,9 +251,11 @@ def _handle(
         authorised_number=entry,
         authorised=True,
         text=language.compose_reply(answers),
+        parsed=[replies.answer_record(a, by_answer.get(i)) for i, a in enumerate(answers)],
         reply_to=message,
-        status=SendStatus.PENDING if send_replies else SendStatus.NOT_SENT,
+        status=SendStatus.WAITING if hold else status,
         status_detail="" if send_replies else "shown by sms_inject, not sent",
+        due_at=received_at + dt.timedelta(seconds=reply_window_s) if hold else None,
     )
     if commands:
         link = SmsMessage.commands.through
@@ -244,6 +263,9 @@ def _handle(
             [link(smsmessage=m, command=c) for m in (message, reply) for c in commands]
         )
     return SmsOutcome(message=message, replies=(reply,), commands=tuple(commands))
+
+
+_OPEN_STATUSES = frozenset({"queued", "sent", "acknowledged"})
 
 
 def _logged(message: SmsMessage, outcome: Outcome, detail: str = "") -> SmsOutcome:
@@ -311,9 +333,14 @@ def _stamp(when: dt.datetime) -> Any:
 
 
 def _carry_out(
-    items: Sequence[Item], *, vessel: Vessel, sender: str, now: dt.datetime
-) -> tuple[list[Answer], list[Command]]:
-    """One answer per item, in order, and the commands queued for it."""
+    items: Sequence[Item],
+    *,
+    vessel: Vessel,
+    sender: str,
+    now: dt.datetime,
+    readings: Mapping[str, float] | None = None,
+) -> tuple[list[Answer], list[tuple[int, Command]]]:
+    """One answer per item, in order, and the commands queued (with their answer's index)."""
     answers: list[Answer] = []
     queued: list[tuple[int, Command]] = []
     for item in items:
@@ -334,13 +361,13 @@ def _carry_out(
         elif item.kind == ItemKind.QUERY:
             answers.append(_answer_query(vessel, item))
         elif item.kind == ItemKind.STATUS:
-            answers.append(_answer_status(vessel, item, now))
+            answers.append(_answer_status(vessel, item, now, readings))
         elif item.kind == ItemKind.HELP:
             answers.append(language.answer_help(item))
         else:
             answers.append(language.answer_error(item))
     _say_superseded(answers, queued)
-    return answers, [command for _, command in queued]
+    return answers, queued
 
 
 def _say_superseded(answers: list[Answer], queued: list[tuple[int, Command]]) -> None:
@@ -394,8 +421,11 @@ def _age(seconds: float) -> str:
     return f"{seconds // 86400}d"
 
 
-def _answer_status(vessel: Vessel, item: Item, now: dt.datetime) -> Answer:
-    """Position and its age, battery, navigation mode, pending commands (DESIGN §4)."""
+def _answer_status(
+    vessel: Vessel, item: Item, now: dt.datetime, readings: Mapping[str, float] | None = None
+) -> Answer:
+    """Position and its age, battery, navigation mode, pending commands (DESIGN §4), then the
+    sensor readings: the live ones when given (the bridge's), else the last fix's."""
     fresh = Vessel.objects.only("last_fix", "last_fix_at", "kind").get(pk=vessel.pk)
     fix = fresh.last_fix or {}
     if isinstance(fix.get("lat"), int | float) and isinstance(fix.get("lon"), int | float):
@@ -408,7 +438,9 @@ def _answer_status(vessel: Vessel, item: Item, now: dt.datetime) -> Answer:
     navigation = selectors.navigation_current(vessel=vessel)
     nav = f"nav {_command_text(navigation)} {navigation.status}" if navigation else "nav unknown"
     pending = selectors.commands_pending(vessel=vessel)
-    return Answer(item.echo, f"{position}, {battery_text}, {nav}, {pending} pending")
+    sensed = replies.readings_text(readings or fix.get("readings") or {})
+    sensed = f", {sensed}" if sensed else ""
+    return Answer(item.echo, f"{position}, {battery_text}, {nav}, {pending} pending{sensed}")
 
 
 # -- outgoing (the modem loop) ----------------------------------------------------------------
@@ -437,10 +469,21 @@ def _settle(message: SmsMessage, changes: dict[str, object]) -> bool:
     return won
 
 
-def sms_mark_sent(*, message: SmsMessage, reference: int | str, now: dt.datetime) -> bool:
-    """The modem took the SMS (``+CMGS: <reference>``); False if it was not pending."""
+def sms_mark_sent(
+    *, message: SmsMessage, reference: int | str, now: dt.datetime, detail: str = ""
+) -> bool:
+    """The modem took the SMS (``+CMGS: <reference>``); False if it was not pending.
+
+    ``detail`` says when it is not sure (the text went out and no answer came): such an SMS is
+    counted as sent, never sent again, so that nobody gets the same reply twice."""
     return _settle(
-        message, {"status": SendStatus.SENT, "reference": str(reference)[:20], "sent_at": now}
+        message,
+        {
+            "status": SendStatus.SENT,
+            "reference": str(reference)[:20],
+            "sent_at": now,
+            "status_detail": detail[:DETAIL_MAX],
+        },
     )
 
 
@@ -450,6 +493,65 @@ def sms_mark_failed(*, message: SmsMessage, reason: str, now: dt.datetime) -> bo
         message,
         {"status": SendStatus.FAILED, "status_detail": reason[:DETAIL_MAX], "sent_at": None},
     )
+
+
+def sms_replies_due(*, vessel: Vessel, now: dt.datetime) -> int:
+    """Release the vessel's held replies whose time has come; how many were released.
+
+    1. Every command of a waiting reply has ended: it goes out saying what happened
+       (``#FHEAD 230 OK``).
+    2. Its window has passed first: it goes out as it stands (``QUEUED`` for the commands still
+       on their way), and a follow-up naming only the commands waits, with no window, for
+       them to end (issue 11 §3: one more SMS when the command ends).
+
+    Each release is a conditional UPDATE from ``waiting``: run twice, or from two threads, it
+    releases once.
+    """
+    released = 0
+    waiting = SmsMessage.objects.filter(
+        vessel=vessel, direction=Direction.OUT, status=SendStatus.WAITING
+    ).order_by("created_at", "pk")
+    for reply in waiting:
+        records = [r for r in reply.parsed or [] if isinstance(r, dict)]
+        pks = [r["command"] for r in records if isinstance(r.get("command"), int)]
+        outcomes = {
+            pk: replies.command_outcome(status, detail)
+            for pk, status, detail in Command.objects.filter(pk__in=pks).values_list(
+                "pk", "status", "result_detail"
+            )
+        }
+        text, ended = replies.settle(records, outcomes)
+        if ended:
+            released += _release(reply, text)
+        elif reply.due_at is not None and reply.due_at <= now:
+            with transaction.atomic():
+                if _release(reply, text):
+                    released += 1
+                    _follow_up(reply, [r for r in records if "command" in r], pks)
+    return released
+
+
+def _release(reply: SmsMessage, text: str) -> int:
+    return SmsMessage.objects.filter(pk=reply.pk, status=SendStatus.WAITING).update(
+        status=SendStatus.PENDING, text=text
+    )
+
+
+def _follow_up(reply: SmsMessage, records: list[dict], pks: list[int]) -> None:
+    later = SmsMessage.objects.create(
+        direction=Direction.OUT,
+        vessel_id=reply.vessel_id,
+        number=reply.number,
+        number_e164=reply.number_e164,
+        authorised_number_id=reply.authorised_number_id,
+        authorised=True,
+        text=reply.text,
+        parsed=records,
+        reply_to_id=reply.reply_to_id,
+        status=SendStatus.WAITING,
+        status_detail="sent when the commands end",
+    )
+    later.commands.set(pks)
 
 
 # -- authorised numbers -----------------------------------------------------------------------
@@ -513,3 +615,130 @@ def validation_message(exc: ValidationError) -> str:
     if hasattr(exc, "message_dict"):
         return "; ".join(f"{k}: {' '.join(v)}" for k, v in exc.message_dict.items())
     return " ".join(exc.messages)
+
+
+# -- the shore link (issue 11 §6): numbers from the shore, the glider's SMS log to it ---------
+
+
+@dataclass(frozen=True)
+class NumbersReplaced:
+    """What :func:`authorised_numbers_replace` changed on this side."""
+
+    added: int = 0
+    updated: int = 0
+    removed: int = 0
+    rejected: tuple[str, ...] = ()  # why each unusable entry was skipped
+
+
+def _entry_expiry(value: object) -> dt.datetime | None:
+    if value in (None, ""):
+        return None
+    if isinstance(value, dt.datetime):
+        return value
+    parsed = parse_datetime(str(value))
+    if parsed is None or parsed.tzinfo is None:
+        raise ValidationError({"expires_at": [f"{value!r} is not a date-time with an offset"]})
+    return parsed
+
+
+@transaction.atomic
+def authorised_numbers_replace(
+    *, vessel: Vessel, numbers: Sequence[Mapping[str, object]]
+) -> NumbersReplaced:
+    """Make ``numbers`` (the shore's list for ``vessel``: number, name, role, active,
+    expires_at) the numbers that may address ``vessel`` here, in one transaction.
+
+    The shore admin is where numbers are managed: an entry missing from the list may no longer
+    address the vessel (its entry is kept, so the log still names its holder). An unusable
+    entry is skipped and reported; the others are applied. Entries that did not change are not
+    written.
+    """
+    added = updated = 0
+    rejected: list[str] = []
+    kept: set[str] = set()
+    for raw in numbers:
+        try:
+            e164 = number_normalise(raw=str(raw.get("number", "")))
+            name = str(raw.get("name") or e164)[:100]
+            role = str(raw.get("role", ""))
+            active = raw.get("active", True) is True
+            expires_at = _entry_expiry(raw.get("expires_at"))
+            if role not in Role.values:
+                raise ValidationError({"role": [f"{role!r} is not a role"]})
+        except (InvalidNumber, ValidationError) as exc:
+            rejected.append(f"{raw.get('number')!r}: {exc}")
+            continue
+        entry = AuthorisedNumber.objects.filter(number=e164).first()
+        linked = entry is not None and entry.vessels.filter(pk=vessel.pk).exists()
+        wanted = {"name": name, "role": role, "active": active, "expires_at": expires_at}
+        if entry is not None and linked and all(getattr(entry, k) == v for k, v in wanted.items()):
+            kept.add(e164)
+            continue
+        vessels = [vessel] if entry is None else [*entry.vessels.exclude(pk=vessel.pk), vessel]
+        fresh = entry is None
+        entry = entry or AuthorisedNumber(number=e164)
+        for field, value in wanted.items():
+            setattr(entry, field, value)
+        try:
+            authorised_number_save(entry=entry, vessels=vessels)
+        except ValidationError as exc:
+            rejected.append(f"{e164}: {validation_message(exc)}")
+            continue
+        kept.add(e164)
+        added += fresh
+        updated += not fresh
+    gone = AuthorisedNumber.objects.filter(vessels=vessel).exclude(number__in=kept)
+    removed = 0
+    for entry in gone:
+        entry.vessels.remove(vessel)
+        removed += 1
+    for reason in rejected:
+        logger.warning("authorised number from the shore skipped: %s", reason)
+    return NumbersReplaced(added, updated, removed, tuple(rejected))
+
+
+def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
+    """Store one entry of a vessel's uploaded SMS log (validated by the boat API); False if
+    the vessel sent it before (same ``id``). Its own savepoint: a failure loses only it."""
+    origin = entry["id"]
+    if SmsMessage.objects.filter(vessel=vessel, origin_id=origin).exists():
+        return False
+    number = _UNSTORABLE.sub("\ufffd", entry["number"])[:RAW_NUMBER_MAX]
+    e164 = _e164_or_blank(number)
+    reply_to = None
+    if entry.get("reply_to"):
+        reply_to = SmsMessage.objects.filter(vessel=vessel, origin_id=entry["reply_to"]).first()
+    try:
+        with transaction.atomic():
+            message = SmsMessage.objects.create(
+                origin_id=origin,
+                direction=entry["direction"],
+                vessel=vessel,
+                number=number,
+                number_e164=e164,
+                authorised_number=AuthorisedNumber.objects.filter(number=e164).first()
+                if e164
+                else None,
+                text=_UNSTORABLE.sub("\ufffd", entry.get("text", "")[:TEXT_STORE_MAX]),
+                authorised=bool(entry.get("authorised")),
+                outcome=entry.get("outcome", ""),
+                detail=entry.get("detail", "")[:DETAIL_MAX],
+                parsed=entry.get("parsed") or [],
+                reply_to=reply_to,
+                modem_timestamp=entry.get("modem_timestamp"),
+                received_at=entry.get("received_at"),
+                status=entry.get("status", ""),
+                status_detail=entry.get("status_detail", "")[:DETAIL_MAX],
+                reference=entry.get("reference", "")[:20],
+                sent_at=entry.get("sent_at"),
+            )
+            # created_at is auto_now_add: the vessel's own time is written after the insert.
+            SmsMessage.objects.filter(pk=message.pk).update(created_at=entry["created_at"])
+            uids = entry.get("commands") or []
+            if uids:
+                message.commands.set(Command.objects.filter(vessel=vessel, uid__in=uids))
+    except IntegrityError:
+        if SmsMessage.objects.filter(vessel=vessel, origin_id=origin).exists():
+            return False  # the same upload racing itself
+        raise
+    return True

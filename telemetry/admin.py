@@ -14,7 +14,7 @@ from django.utils import timezone
 from django.utils.functional import cached_property
 
 from telemetry.models import Fix, SensorChannel
-from telemetry.services import sensor_channel_save
+from telemetry.services import fixes_delete, sensor_channel_save
 from vessels.models import Vessel
 
 # Counting past this is never worth a full scan: the admin shows "10000+" pages' worth.
@@ -112,6 +112,13 @@ class FixAdmin(admin.ModelAdmin):
 
     def has_change_permission(self, request: HttpRequest, obj: Any = None) -> bool:
         return False
+
+    # Deleting goes through the service, which keeps the track overview in step.
+    def delete_model(self, request: HttpRequest, obj: Fix) -> None:
+        fixes_delete(fixes=Fix.objects.filter(pk=obj.pk))
+
+    def delete_queryset(self, request: HttpRequest, queryset: QuerySet[Fix]) -> None:
+        fixes_delete(fixes=queryset)
 
 
 @admin.register(SensorChannel)

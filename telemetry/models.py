@@ -58,3 +58,44 @@ class SensorChannel(models.Model):
 
     def __str__(self) -> str:
         return f"{self.label} ({self.unit})" if self.unit else self.label
+
+
+class TrackBucket(models.Model):
+    """A summary of a vessel's fixes in one time bucket: the track overview (telemetry/overview.py).
+
+    Derived data, rebuilt from the fixes (the finest width) or from the next finer buckets by
+    services.track_overview_refresh; never edited. Lets a month of track or plots be read from
+    a few thousand rows instead of a million fixes.
+    """
+
+    vessel = models.ForeignKey(Vessel, on_delete=models.CASCADE, related_name="+")
+    width = models.PositiveIntegerField(help_text="Bucket length, seconds.")
+    start = models.BigIntegerField(help_text="Bucket start, Unix seconds.")
+    count = models.PositiveIntegerField()
+    # [first, last, north, south, east, west, gap_from, gap_to], each [t, lat, lon] or null.
+    points = models.JSONField()
+    # reading key ("" for battery_v) -> [min, max, sum, count]
+    channels = models.JSONField(default=dict)
+
+    class Meta:
+        constraints = [
+            # Also the index every overview read walks: (vessel, width, start range).
+            models.UniqueConstraint(fields=["vessel", "width", "start"], name="trackbucket_unique")
+        ]
+
+
+class TrackDirty(models.Model):
+    """A minute of a vessel's track whose overview buckets are out of date.
+
+    Ingest adds one per minute it stored a fix in (late store-and-forward fixes included), in
+    the same statement or transaction as the fixes; the next overview read rebuilds and clears
+    them. Cheap to write, and a reader never sees a bucket older than the fixes it summarises.
+    """
+
+    vessel = models.ForeignKey(Vessel, on_delete=models.CASCADE, related_name="+")
+    start = models.BigIntegerField(help_text="Minute start, Unix seconds.")
+
+    class Meta:
+        constraints = [
+            models.UniqueConstraint(fields=["vessel", "start"], name="trackdirty_unique")
+        ]

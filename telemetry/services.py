@@ -12,10 +12,13 @@ from typing import Any
 
 from django.conf import settings
 from django.db import DatabaseError, connection, transaction
+from django.db.models import QuerySet
 from django.utils import timezone
 
+from telemetry import selectors
 from telemetry.errors import BatchTooLarge
-from telemetry.models import Fix, SensorChannel
+from telemetry.models import Fix, SensorChannel, TrackBucket, TrackDirty
+from telemetry.overview import WIDTHS, Summary, bucket_start, group_by_bucket, merge, summarize
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.database import database_unavailable
 from vessels.models import Vessel
@@ -103,6 +106,7 @@ def _store_once(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datet
         return _store_postgres_in_one_statement(vessel, list(fixes.values()), now)
     with transaction.atomic():
         inserted = _insert_new(vessel.pk, list(fixes.values()), now)
+        _mark_dirty(vessel.pk, inserted)
         _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
     return inserted
 
@@ -210,7 +214,8 @@ def _store_postgres_in_one_statement(
     where BEGIN, INSERT, UPDATE and COMMIT cost four (a legacy client posts one fix per
     request; the round trips were most of it). The vessel takes the batch's newest fix
     only if that one was new (the `newest` CTE reads the insert's RETURNING rows); an older
-    new fix of the same batch could not be newer than the vessel's last fix anyway.
+    new fix of the same batch could not be newer than the vessel's last fix anyway. The
+    `dirty` CTE marks the new fixes' minutes for the track overview in the same statement.
     """
     newest = max(fixes, key=lambda f: f.recorded_at)
     insert_sql, insert_params = _insert_postgres_statement(vessel.pk, now, fixes)
@@ -224,12 +229,13 @@ def _store_postgres_in_one_statement(
     sql = (
         f"WITH inserted AS ({insert_sql}), "
         "newest AS (SELECT 1 FROM inserted WHERE recorded_at = %s), "
-        f"vessel AS ({update_sql}) "
+        f"vessel AS ({update_sql}), "
+        f"{_mark_dirty_cte()} "
         "SELECT recorded_at FROM inserted"
     )
     by_time = {_key(f.recorded_at): f.recorded_at for f in fixes}
     with connection.cursor() as cursor:
-        cursor.execute(sql, [*insert_params, newest.recorded_at, *update_params])
+        cursor.execute(sql, [*insert_params, newest.recorded_at, *update_params, vessel.pk])
         return [by_time[_key(row[0])] for row in cursor.fetchall()]
 
 
@@ -274,3 +280,152 @@ def sensor_channel_save(*, channel: SensorChannel) -> SensorChannel:
     channel.full_clean()
     channel.save()
     return channel
+
+
+# --- the track overview (telemetry/overview.py): marked dirty by ingest, rebuilt on read ---
+
+# Dirty minutes closer than this are rebuilt from one read of the fixes between them.
+DIRTY_RUN_JOIN_S = 1800
+# A full rebuild reads the fixes a day at a time: bounded memory for any history.
+REBUILD_WINDOW_S = 86400
+
+
+def _dirty_minutes(times: Sequence[dt.datetime]) -> list[int]:
+    return sorted({bucket_start(t.timestamp(), WIDTHS[0]) for t in times})
+
+
+def _mark_dirty(vessel_id: int, times: Sequence[dt.datetime]) -> None:
+    """Mark the minutes of newly stored fixes out of date (same transaction as the fixes)."""
+    minutes = _dirty_minutes(times)
+    if not minutes:
+        return
+    qn = connection.ops.quote_name
+    table = qn(TrackDirty._meta.db_table)
+    rows = ", ".join(["(%s, %s)"] * len(minutes))
+    sql = (
+        f"INSERT INTO {table} ({qn('vessel_id')}, {qn('start')}) VALUES {rows}"
+        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) DO NOTHING"
+    )
+    with connection.cursor() as cursor:
+        cursor.execute(sql, [value for m in minutes for value in (vessel_id, m)])
+
+
+def _mark_dirty_cte() -> str:
+    """The same marks as _mark_dirty, as a CTE over the `inserted` rows (PostgreSQL)."""
+    qn = connection.ops.quote_name
+    table = qn(TrackDirty._meta.db_table)
+    minute = WIDTHS[0]
+    return (
+        f"dirty AS (INSERT INTO {table} ({qn('vessel_id')}, {qn('start')})"
+        f" SELECT DISTINCT %s, (floor(extract(epoch FROM recorded_at) / {minute}) * {minute})"
+        "::bigint FROM inserted"
+        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) DO NOTHING)"
+    )
+
+
+def track_overview_refresh(*, vessel_id: int) -> int:
+    """Rebuild the overview buckets of the vessel's dirty minutes; how many minutes.
+
+    The marks are claimed (DELETE … RETURNING) in the transaction that rebuilds them: a fix
+    stored meanwhile either is visible to the rebuild's reads or leaves a new mark behind.
+    """
+    if not TrackDirty.objects.filter(vessel_id=vessel_id).exists():
+        return 0
+    qn = connection.ops.quote_name
+    sql = (
+        f"DELETE FROM {qn(TrackDirty._meta.db_table)} WHERE {qn('vessel_id')} = %s"
+        f" RETURNING {qn('start')}"
+    )
+    with transaction.atomic():
+        with connection.cursor() as cursor:
+            cursor.execute(sql, [vessel_id])
+            minutes = sorted(row[0] for row in cursor.fetchall())
+        for lo, hi in _runs(minutes):
+            _rebuild_range(vessel_id, lo, hi)
+    return len(minutes)
+
+
+def _runs(minutes: list[int]) -> list[tuple[int, int]]:
+    """Sorted minute starts as [lo, hi) ranges, near ones joined."""
+    runs: list[list[int]] = []
+    for m in minutes:
+        if runs and m - runs[-1][1] <= DIRTY_RUN_JOIN_S:
+            runs[-1][1] = m + WIDTHS[0]
+        else:
+            runs.append([m, m + WIDTHS[0]])
+    return [(lo, hi) for lo, hi in runs]
+
+
+def track_overview_rebuild(*, vessel: Vessel) -> None:
+    """Rebuild the vessel's whole overview from its fixes (after a bulk load or deletions)."""
+    TrackDirty.objects.filter(vessel=vessel).delete()
+    TrackBucket.objects.filter(vessel=vessel).delete()
+    first = Fix.objects.filter(vessel=vessel).order_by("recorded_at").first()
+    last = Fix.objects.filter(vessel=vessel).order_by("-recorded_at").first()
+    if first is None or last is None:
+        return
+    lo = bucket_start(first.recorded_at.timestamp(), WIDTHS[-1])
+    end = last.recorded_at.timestamp() + WIDTHS[0]
+    while lo < end:
+        hi = lo + REBUILD_WINDOW_S
+        with transaction.atomic():
+            _rebuild_range(vessel.pk, lo, hi)
+        lo = hi
+
+
+def _rebuild_range(vessel_id: int, lo: int, hi: int) -> None:
+    """Rebuild every level's buckets touching [lo, hi) (minute-aligned)."""
+    fixes = selectors.raw_fixes(vessel_id, lo, hi)
+    minute = WIDTHS[0]
+    groups = group_by_bucket(fixes, minute, lambda f: f[0])
+    _replace_buckets(
+        vessel_id, minute, lo, hi, [summarize(start, group) for start, group in groups.items()]
+    )
+    for finer, width in zip(WIDTHS, WIDTHS[1:], strict=False):
+        lo, hi = bucket_start(lo, width), -(-hi // width) * width
+        parts = selectors.buckets(vessel_id, finer, lo, hi)
+        groups = group_by_bucket(parts, width, lambda s: s.start)
+        merged = [merge(start, group) for start, group in groups.items()]
+        _replace_buckets(vessel_id, width, lo, hi, merged)
+
+
+def _replace_buckets(
+    vessel_id: int, width: int, lo: int, hi: int, summaries: list[Summary]
+) -> None:
+    """Replace the buckets of ``width`` starting in [lo, hi) with ``summaries``.
+
+    Plain DELETE and executemany: a month of minutes is ~45,000 rows, and building a model
+    instance per row cost more than the insert (profiled, bench.maps).
+    """
+    b = selectors.column_names(TrackBucket)
+    with connection.cursor() as cursor:
+        cursor.execute(
+            f"DELETE FROM {b['table']} WHERE {b['vessel']} = %s AND {b['width']} = %s"
+            f" AND {b['start']} >= %s AND {b['start']} < %s",
+            [vessel_id, width, lo, hi],
+        )
+        if not summaries:
+            return
+        cursor.executemany(
+            f"INSERT INTO {b['table']} ({b['vessel']}, {b['width']}, {b['start']}, {b['count']},"
+            f" {b['points']}, {b['channels']}) VALUES (%s, %s, %s, %s, %s, %s)",
+            [
+                (vessel_id, width, s.start, s.count, json.dumps(
+                    [s.first, s.last, s.north, s.south, s.east, s.west, *(s.gap or (None, None))]
+                ), json.dumps(s.channels))
+                for s in summaries
+            ],
+        )  # fmt: skip
+
+
+def fixes_delete(*, fixes: QuerySet[Fix]) -> int:
+    """Delete fixes (the admin's delete) and mark their minutes for the track overview."""
+    with transaction.atomic():
+        marks: dict[int, list[dt.datetime]] = {}
+        for vessel_id, recorded_at in fixes.values_list("vessel_id", "recorded_at").iterator():
+            marks.setdefault(vessel_id, []).append(recorded_at)
+        for vessel_id, times in marks.items():
+            for start in range(0, len(times), INSERT_CHUNK):
+                _mark_dirty(vessel_id, times[start : start + INSERT_CHUNK])
+        deleted, _ = Fix.objects.filter(pk__in=fixes.values("pk")).delete()
+    return deleted

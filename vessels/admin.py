@@ -255,6 +255,8 @@ class MissionImportForm(forms.Form):
 
 @admin.register(Mission)
 class MissionAdmin(admin.ModelAdmin):
+    # The planner map over the item rows (template + vessels/static/vessels/planner.js).
+    change_form_template = "admin/vessels/mission/change_form.html"
     list_display = ["name", "vessel", "item_count", "end", "updated_at"]
     list_filter = ["vessel", "end"]
     inlines = [MissionItemInline]

@@ -8,9 +8,12 @@
 * ``sensors``: the UDP subscriber feeding the latest readings; ``sensor_standin``: a stand-in
   for the payload board's data servers (tests, demos);
 * ``power``: what a power-down notice runs;
-* ``dispatch``: routes the machine's notifications to the above.
+* ``dispatch``: routes the machine's notifications to the above;
+* ``sms_link``: the modem thread (SMS in through the SMS service, held replies, SMS out);
+* ``process``: the whole bridge, ``manage.py run_wg_bridge`` (threads, housekeeping, stop);
+* ``demo``: ``python -m sms.bridge.demo``, the bridge between the two simulators.
 
-Wiring (as ``tests/sms/bridge/test_integration.py`` does; ``run_wg_bridge`` comes next)::
+Wiring (as ``process.Bridge`` does)::
 
     readings = LatestReadings()                     # its .state is the status block's source
     source = DatabaseCommandSource(vessel=glider)   # result_timeout_s=, quarantine_s=

@@ -6,11 +6,29 @@ from __future__ import annotations
 from django.urls import path
 
 from telemetry.api.boat import LegacyDataView, TelemetryView
+from telemetry.api.maps import (
+    VesselNearestFixView,
+    VesselSeriesView,
+    VesselTrackExportView,
+    VesselTrackView,
+)
 from telemetry.api.views import VesselFixesView
 
 urlpatterns = [
     path("boat/telemetry/", TelemetryView.as_view(), name="boat-telemetry"),
     path("vessels/<slug:slug>/fixes/", VesselFixesView.as_view(), name="vessel-fixes"),
+    path(
+        "vessels/<slug:slug>/fixes/nearest/",
+        VesselNearestFixView.as_view(),
+        name="vessel-fix-nearest",
+    ),
+    path("vessels/<slug:slug>/track/", VesselTrackView.as_view(), name="vessel-track"),
+    path(
+        "vessels/<slug:slug>/track/export/",
+        VesselTrackExportView.as_view(),
+        name="vessel-track-export",
+    ),
+    path("vessels/<slug:slug>/series/", VesselSeriesView.as_view(), name="vessel-series"),
 ]
 
 legacy_urlpatterns = [path("data.cgi", LegacyDataView.as_view(), name="legacy-data")]

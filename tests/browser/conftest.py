@@ -5,7 +5,10 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -47,3 +50,26 @@ def browser() -> Iterator[object]:
     finally:
         driver.quit()
         shutil.rmtree(profile, ignore_errors=True)
+
+
+# Screenshots of every step are test artifacts: what an operator sees. SHORESIDE_SCREENSHOTS
+# chooses the folder (CI uploads it); the run's summary prints where they went.
+SCREENSHOTS = Path(
+    os.environ.get("SHORESIDE_SCREENSHOTS") or Path(tempfile.gettempdir()) / "shoreside-screenshots"
+)
+
+
+SESSION_START = time.time()
+
+
+def pytest_terminal_summary(terminalreporter: Any) -> None:
+    taken = [p for p in SCREENSHOTS.glob("*.png") if p.stat().st_mtime >= SESSION_START]
+    if taken:
+        terminalreporter.write_line(f"browser screenshots ({len(taken)}): {SCREENSHOTS}")
+
+
+@pytest.fixture(autouse=True)
+def _no_map_tiles(settings: Any) -> None:
+    # No internet here (nor at sea): the maps draw on a plain background, which is what the
+    # tests check; a test that wants a tile URL sets its own.
+    settings.MAP_TILES_URL = ""

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import pytest
 from django.contrib.auth.models import User
 from selenium.webdriver.common.by import By
@@ -12,30 +9,11 @@ from selenium.webdriver.support.ui import Select, WebDriverWait
 
 from commands.models import Command
 from telemetry.services import fix_ingest
+from tests.browser.support import log_in, shot
 from vessels.models import Vessel
 
 # A real chromium per test: not for the quick loop.
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
-SCREENSHOTS = (
-    Path(os.environ.get("SHORESIDE_SCREENSHOTS", ""))
-    if os.environ.get("SHORESIDE_SCREENSHOTS")
-    else None
-)
-
-
-def shot(browser, name: str) -> None:
-    if SCREENSHOTS:
-        SCREENSHOTS.mkdir(parents=True, exist_ok=True)
-        browser.save_screenshot(str(SCREENSHOTS / f"{name}.png"))
-
-
-def log_in(browser, live_server, user: User) -> None:
-    browser.get(live_server.url + "/admin/login/")
-    browser.find_element(By.NAME, "username").send_keys(user.username)
-    browser.find_element(By.NAME, "password").send_keys("pw-" + user.username)
-    browser.find_element(By.CSS_SELECTOR, "input[type=submit]").click()
-    # click() may return before the POST is answered; under load the next get() raced it.
-    WebDriverWait(browser, 20).until(lambda b: "/admin/login/" not in b.current_url)
 
 
 def visible(browser, name: str) -> bool:
@@ -75,10 +53,19 @@ def test_an_operator_logs_in_and_queues_a_move_to(
 
 
 def test_the_admin_loads_no_asset_from_the_internet(
-    browser, live_server, operator_user: User
+    browser, live_server, admin_user: User, vessel_a: Vessel
 ) -> None:
-    log_in(browser, live_server, operator_user)
-    for path in ("/admin/", "/admin/commands/command/add/", "/api/v1/docs/"):
+    admin_user.set_password("pw-admin")
+    admin_user.save()
+    log_in(browser, live_server, admin_user)
+    pages = (
+        "/admin/",  # the fleet map
+        f"/fleet/vessels/{vessel_a.slug}/track/",
+        "/admin/vessels/mission/add/",  # the planner
+        "/admin/commands/command/add/",
+        "/api/v1/docs/",
+    )
+    for path in pages:
         browser.get(live_server.url + path)
         urls = browser.execute_script(
             "return performance.getEntriesByType('resource').map(e => e.name)"

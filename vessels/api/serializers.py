@@ -28,3 +28,31 @@ class VesselSerializer(serializers.ModelSerializer):
 
     def get_status(self, vessel: Vessel) -> str:
         return vessel.status(timezone.now())
+
+
+class _LastFixSerializer(serializers.Serializer):
+    time = serializers.DateTimeField()
+    lat = serializers.FloatField()
+    lon = serializers.FloatField()
+    heading_deg = serializers.FloatField(allow_null=True)
+    speed_mps = serializers.FloatField(allow_null=True)
+    battery_v = serializers.FloatField(allow_null=True)
+    readings = serializers.DictField(child=serializers.FloatField(), allow_null=True)
+
+
+class _FleetVesselSerializer(serializers.Serializer):
+    slug = serializers.SlugField()
+    name = serializers.CharField()
+    kind = serializers.CharField()
+    status = serializers.ChoiceField(choices=["reporting", "overdue", "never seen"])
+    telemetry_period_s = serializers.IntegerField()
+    last_seen_at = serializers.DateTimeField(allow_null=True)
+    last_fix = _LastFixSerializer(allow_null=True)
+    admin_url = serializers.CharField()
+
+
+class FleetSerializer(serializers.Serializer):
+    """The fleet map's poll (documentation only: the view writes the JSON itself)."""
+
+    server_time = serializers.DateTimeField()
+    vessels = _FleetVesselSerializer(many=True)

@@ -1,9 +1,21 @@
 from __future__ import annotations
 
-from rest_framework import viewsets
+import datetime as dt
+import hashlib
+import json
+from typing import Any
 
-from vessels.api.serializers import VesselSerializer
-from vessels.selectors import vessel_list
+from django.http import HttpResponse
+from django.urls import reverse
+from drf_spectacular.utils import OpenApiParameter, OpenApiResponse, extend_schema
+from rest_framework import viewsets
+from rest_framework.request import Request
+from rest_framework.views import APIView
+
+from vessels.api.serializers import FleetSerializer, VesselSerializer
+from vessels.models import Vessel
+from vessels.permissions import ModelPermissions
+from vessels.selectors import fleet_vessels, vessel_list
 
 
 class VesselViewSet(viewsets.ReadOnlyModelViewSet):
@@ -15,3 +27,61 @@ class VesselViewSet(viewsets.ReadOnlyModelViewSet):
 
     def get_queryset(self):  # noqa: ANN201 (DRF hook)
         return vessel_list()
+
+
+LAST_FIX_FIELDS = ("time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings")
+
+
+def admin_url_template() -> str:
+    """The vessel admin's change URL with `{pk}` in it: one reverse() per poll, not per vessel."""
+    return reverse("admin:vessels_vessel_change", args=[987654321]).replace("987654321", "{pk}")
+
+
+def fleet_entry(vessel: Vessel, now: dt.datetime, admin_url: str) -> dict[str, Any]:
+    last = vessel.last_fix
+    return {
+        "slug": vessel.slug,
+        "name": vessel.name,
+        "kind": vessel.kind,
+        "status": vessel.status(now),
+        "telemetry_period_s": vessel.telemetry_period_s,
+        "last_seen_at": vessel.last_seen_at.isoformat() if vessel.last_seen_at else None,
+        "last_fix": {k: last.get(k) for k in LAST_FIX_FIELDS} if last else None,
+        "admin_url": admin_url.format(pk=vessel.pk),
+    }
+
+
+@extend_schema(
+    parameters=[OpenApiParameter("If-None-Match", str, OpenApiParameter.HEADER)],
+    responses={200: FleetSerializer, 304: OpenApiResponse(description="Not modified")},
+    tags=["operator"],
+)
+class FleetView(APIView):
+    """Every active vessel for the fleet map, with an ETag: poll with `If-None-Match`.
+
+    The ETag covers everything but `server_time`, the statuses included: a vessel turning
+    overdue changes it even though no row changed.
+    """
+
+    queryset = Vessel.objects.none()  # for the model permission check (view_vessel)
+    permission_classes = [ModelPermissions]
+
+    def get(self, request: Request) -> HttpResponse:
+        now = dt.datetime.now(dt.UTC)
+        admin_url = admin_url_template()
+        vessels = [fleet_entry(v, now, admin_url) for v in fleet_vessels()]
+        encoded = json.dumps(vessels, separators=(",", ":"), sort_keys=True)
+        etag = '"' + hashlib.sha256(encoded.encode()).hexdigest()[:32] + '"'
+        if etag in _tags(request.headers.get("If-None-Match", "")):
+            response = HttpResponse(status=304)
+        else:
+            body = '{"server_time":"%s","vessels":%s}' % (now.isoformat(), encoded)  # noqa: UP031
+            response = HttpResponse(body, content_type="application/json")
+        response["ETag"] = etag
+        response["Cache-Control"] = "private, no-cache"
+        return response
+
+
+def _tags(header: str) -> set[str]:
+    # Weak validators compare equal for a GET (RFC 9110 §13.1.2): W/"x" matches "x".
+    return {t.strip().removeprefix("W/") for t in header.split(",") if t.strip()}

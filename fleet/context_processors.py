@@ -1,0 +1,22 @@
+"""What every map page needs from the settings, read per request (tests and a changed
+environment take effect without re-importing django-leaflet, which reads its own config once)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from django.conf import settings
+from django.http import HttpRequest
+
+
+def maps(request: HttpRequest) -> dict[str, Any]:
+    leaflet = getattr(settings, "LEAFLET_CONFIG", {})
+    return {
+        "map_config": {
+            # Empty: no tile layer (DESIGN: the site works at sea, with no tile server).
+            "tiles_url": settings.MAP_TILES_URL or "",
+            "attribution": settings.MAP_TILES_ATTRIBUTION,
+            "center": list(leaflet.get("DEFAULT_CENTER", (0.0, 0.0))),
+            "zoom": leaflet.get("DEFAULT_ZOOM", 9),
+        }
+    }

@@ -1,0 +1,85 @@
+"""What the map pages show, gathered on the server: sensor channel labels and units, the
+command actions the operator may use, the endpoint URLs the page's scripts call.
+
+Reads only (no writes): the pages' data comes from the JSON endpoints, this is their frame.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from django.conf import settings
+from django.contrib.auth.base_user import AbstractBaseUser
+from django.http import HttpRequest
+from django.middleware.csrf import get_token
+from django.urls import reverse
+
+from fleet.map_actions import map_actions
+from telemetry.models import SensorChannel
+from vessels.models import OVERDUE_PERIODS, VesselKind
+
+SLUG = "__slug__"  # placeholder the scripts replace with a vessel's slug
+UID = "__uid__"
+# Battery voltage is a Fix column, not a reading, but plots and panels label it the same way.
+BATTERY = {"label": "Battery", "unit": "V"}
+# The fleet map's side panel lists this many of the vessel's newest commands.
+PANEL_COMMANDS = 8
+
+
+def sensor_channels() -> dict[str, dict[str, Any]]:
+    """{key: {label, unit, min, max}} for every SensorChannel (a few dozen rows at most)."""
+    return {
+        c.key: {"label": c.label, "unit": c.unit, "min": c.minimum, "max": c.maximum}
+        for c in SensorChannel.objects.all()
+    }
+
+
+def can_view_fleet(user: AbstractBaseUser) -> bool:
+    return user.is_active and user.has_perm("vessels.view_vessel")
+
+
+def can_view_track(user: AbstractBaseUser) -> bool:
+    return can_view_fleet(user) and user.has_perm("telemetry.view_fix")
+
+
+def _vessel_url(name: str) -> str:
+    return reverse(name, kwargs={"slug": SLUG})
+
+
+def fleet_map_config(request: HttpRequest) -> dict[str, Any]:
+    """The fleet map's page config (json_script): endpoints, rights, channels, actions."""
+    user = request.user
+    can_command = user.has_perm("commands.add_command")
+    return {
+        "fleetUrl": reverse("fleet"),
+        "commandsUrl": _vessel_url("vessel-commands"),
+        "cancelUrl": reverse("command-cancel", kwargs={"uid": UID}),
+        "trackUrl": _vessel_url("fleet-track") if can_view_track(user) else "",
+        "pollS": settings.FLEET_MAP_POLL_S,
+        "overduePeriods": OVERDUE_PERIODS,
+        "panelCommands": PANEL_COMMANDS,
+        "canCommand": can_command,
+        "canCancel": user.has_perm("commands.change_command"),
+        "canViewCommands": user.has_perm("commands.view_command"),
+        "csrfToken": get_token(request),
+        "channels": {"battery_v": BATTERY, **sensor_channels()},
+        # Without the add permission, no buttons: the API would answer 403 anyway.
+        "actions": {kind: map_actions(kind) if can_command else [] for kind in VesselKind.values},
+    }
+
+
+def track_page_config(request: HttpRequest, slug: str) -> dict[str, Any]:
+    """The track page's config: the vessel's data endpoints and the channel labels."""
+
+    def url(name: str) -> str:
+        return reverse(name, kwargs={"slug": slug})
+
+    return {
+        "slug": slug,
+        "trackUrl": url("vessel-track"),
+        "nearestUrl": url("vessel-fix-nearest"),
+        "seriesUrl": url("vessel-series"),
+        "exportUrl": url("vessel-track-export"),
+        "pageUrl": url("fleet-track"),
+        "channels": {"battery_v": BATTERY, **sensor_channels()},
+    }

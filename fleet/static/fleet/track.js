@@ -1,0 +1,329 @@
+// One vessel's track for a time range (issue 9 §2, §3): the server-simplified track with its
+// gaps as breaks, the nearest fix on click, and a plot per channel under the map (min–max band
+// and mean line from /series/). Hovering a plot marks that moment on the map; clicking the
+// track marks it on the plots.
+(function () {
+  "use strict";
+  var S = window.Shoreside;
+  var el = S.el;
+  var RANGES = { "6h": 6 * 3600, "24h": 24 * 3600, "7d": 7 * 24 * 3600 };
+  var MAX_POINTS = 2000;
+  var MAX_BUCKETS = 1000;
+  var PLOT_HEIGHT = 170;
+  var COLOURS = ["#1565c0", "#2e7d32", "#6a1b9a", "#ef6c00", "#00838f", "#ad1457", "#4e342e"];
+  var MARK_COLOUR = "#ff6f00";
+
+  function iso(date) { return date.toISOString().replace(/\.\d{3}Z$/, "Z"); }
+  // datetime-local inputs hold UTC here (the page says so): no browser time zone involved.
+  function toInput(date) { return date.toISOString().slice(0, 16); }
+  function fromInput(value) { var d = new Date(value + ":00Z"); return isNaN(d) ? null : d; }
+
+  function TrackPage(map, cfg) {
+    this.map = map;
+    this.cfg = cfg;
+    this.trackLayer = L.layerGroup().addTo(map);
+    this.timeMarker = L.marker([0, 0], {
+      interactive: false, keyboard: false,
+      icon: L.divIcon({ className: "time-marker", iconSize: [14, 14], iconAnchor: [7, 7] }),
+    });
+    this.points = [];
+    this.plots = [];
+    this.markedT = null;
+    this.bar = document.getElementById("range-bar");
+    this.bindRange();
+    var params = new URLSearchParams(location.search);
+    var from = params.get("from") && new Date(params.get("from"));
+    var to = params.get("to") && new Date(params.get("to"));
+    if (from && to && !isNaN(from) && !isNaN(to)) { this.setRange(null, from, to); }
+    else { this.setPreset(RANGES[params.get("range")] ? params.get("range") : this.bar.dataset.default); }
+    var self = this;
+    window.addEventListener("resize", function () { self.resizePlots(); });
+  }
+
+  TrackPage.prototype.bindRange = function () {
+    var self = this;
+    this.bar.querySelectorAll("[data-range]").forEach(function (b) {
+      b.addEventListener("click", function () { self.setPreset(b.dataset.range); });
+    });
+    document.getElementById("range-apply").addEventListener("click", function () {
+      var from = fromInput(document.getElementById("range-from").value);
+      var to = fromInput(document.getElementById("range-to").value);
+      if (!from || !to || from >= to) {
+        self.summary("Pick a “from” before the “to” (UTC).", true);
+        return;
+      }
+      self.setRange(null, from, to);
+    });
+  };
+
+  TrackPage.prototype.setPreset = function (name) {
+    var to = new Date();
+    this.setRange(name, new Date(to.getTime() - RANGES[name] * 1000), to);
+  };
+
+  TrackPage.prototype.setRange = function (preset, from, to) {
+    this.preset = preset;
+    this.from = from;
+    this.to = to;
+    this.bar.querySelectorAll("[data-range]").forEach(function (b) {
+      b.classList.toggle("active", b.dataset.range === preset);
+    });
+    document.getElementById("range-from").value = toInput(from);
+    document.getElementById("range-to").value = toInput(to);
+    var query = preset ? "?range=" + preset : "?from=" + iso(from) + "&to=" + iso(to);
+    history.replaceState(null, "", this.cfg.pageUrl + query);
+    var span = "from=" + encodeURIComponent(iso(from)) + "&to=" + encodeURIComponent(iso(to));
+    var base = this.cfg.exportUrl + "?" + span + "&format=";
+    ["csv", "geojson", "gpx"].forEach(function (f) { document.getElementById("export-" + f).href = base + f; });
+    this.load(span);
+  };
+
+  TrackPage.prototype.summary = function (text, error) {
+    var box = document.getElementById("track-summary");
+    box.textContent = text;
+    box.classList.toggle("errornote", !!error);
+  };
+
+  TrackPage.prototype.load = function (span) {
+    var self = this;
+    var token = (this.loadToken = {});
+    this.summary("Loading…");
+    var plotsBox = document.getElementById("plots");
+    var buckets = Math.min(MAX_BUCKETS, Math.max(100, plotsBox.clientWidth || 800));
+    var track = S.getJSON(this.cfg.trackUrl + "?" + span + "&max_points=" + MAX_POINTS).then(answer);
+    var series = S.getJSON(this.cfg.seriesUrl + "?" + span + "&buckets=" + buckets).then(answer);
+    Promise.all([track, series])
+      .then(function (res) {
+        if (token !== self.loadToken) { return; }  // an older range answering late
+        self.drawTrack(res[0]);
+        self.drawPlots(res[1]);
+      })
+      .catch(function (err) {
+        if (token === self.loadToken) { self.summary("Could not load the track: " + err.message, true); }
+      });
+  };
+
+  function answer(r) {
+    if (!r.ok) { throw new Error("HTTP " + r.status); }
+    return r.json();
+  }
+
+  // --- the map -----------------------------------------------------------------------------
+
+  TrackPage.prototype.drawTrack = function (collection) {
+    var self = this;
+    this.trackLayer.clearLayers();
+    this.map.removeLayer(this.timeMarker);
+    this.points = [];
+    var feature = (collection.features || [])[0];
+    var props = (feature && feature.properties) || {};
+    var segments = (feature && feature.geometry && feature.geometry.coordinates) || [];
+    var times = props.times || [];
+    segments.forEach(function (seg, i) {
+      seg.forEach(function (c, j) {
+        self.points.push({ lat: c[1], lon: c[0], t: times[i] ? times[i][j] : null, seg: i });
+      });
+    });
+    this.gapS = props.gap_s || null;
+    var text = (props.fixes || 0) + " fixes in range, " + (props.points || this.points.length) + " points drawn";
+    if (segments.length > 1) {
+      text += ", " + segments.length + " stretches (reporting gaps over " + S.fmtDuration(props.gap_s) + " are breaks)";
+    }
+    this.summary(this.points.length ? text + "." : "No fixes in this range.");
+    if (!this.points.length) { return; }
+    var line = L.geoJSON(feature, { style: { color: "#1565c0", weight: 3, opacity: 0.9 } }).addTo(this.trackLayer);
+    line.on("click", function (e) { L.DomEvent.stopPropagation(e); self.trackClicked(e.latlng); });
+    var first = this.points[0], last = this.points[this.points.length - 1];
+    L.circleMarker([first.lat, first.lon], { radius: 6, color: "#2e7d32", fillOpacity: 0.9 })
+      .bindTooltip("start " + S.fmtTime(first.t)).addTo(this.trackLayer);
+    L.circleMarker([last.lat, last.lon], { radius: 6, color: "#c62828", fillOpacity: 0.9 })
+      .bindTooltip("end " + S.fmtTime(last.t)).addTo(this.trackLayer);
+    this.map.fitBounds(line.getBounds().pad(0.1), { maxZoom: 16 });
+  };
+
+  // The track's vertex nearest the click (on screen), then the server's fix nearest its time.
+  TrackPage.prototype.trackClicked = function (latlng) {
+    var self = this, map = this.map, click = map.latLngToLayerPoint(latlng), best = null, bestD = Infinity;
+    this.points.forEach(function (p) {
+      if (p.t === null) { return; }
+      var d = map.latLngToLayerPoint([p.lat, p.lon]).distanceTo(click);
+      if (d < bestD) { bestD = d; best = p; }
+    });
+    if (!best) { return; }
+    this.markTime(best.t);
+    S.getJSON(this.cfg.nearestUrl + "?time=" + encodeURIComponent(iso(new Date(best.t * 1000))))
+      .then(answer)
+      .then(function (fix) {
+        L.popup({ maxWidth: 340, maxHeight: 260, keepInView: true, autoPanPadding: [12, 12] }).setLatLng([fix.lat, fix.lon]).setContent(self.fixTable(fix)).openOn(map);
+        self.markTime(Date.parse(fix.time) / 1000);
+      })
+      .catch(function (err) { L.popup().setLatLng(latlng).setContent("No fix: " + err.message).openOn(map); });
+  };
+
+  TrackPage.prototype.fixTable = function (fix) {
+    var cfg = this.cfg;
+    function label(key) { return cfg.channels[key] ? cfg.channels[key].label : key; }
+    function unit(key) { return cfg.channels[key] ? cfg.channels[key].unit : ""; }
+    var rows = [
+      ["Time", S.fmtTime(fix.time)],
+      ["Position", S.fmtDDM(fix.lat, fix.lon) + " (" + S.fmtLatLon(fix.lat, fix.lon) + ")"],
+      ["Speed", S.fmtValue(fix.speed_mps, "m/s")],
+      ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
+      [label("battery_v"), S.fmtValue(fix.battery_v, unit("battery_v"))],
+    ];
+    var readings = fix.readings || {};
+    Object.keys(readings).sort().forEach(function (k) { rows.push([label(k), S.fmtValue(readings[k], unit(k))]); });
+    var table = el("table", {}, rows.map(function (r) { return el("tr", {}, [el("th", { text: r[0] }), el("td", { text: r[1] })]); }));
+    return el("div", { class: "fix-popup" }, [table]);
+  };
+
+  // Where the vessel was at time t: between the two drawn points around it (within a stretch).
+  TrackPage.prototype.positionAt = function (t) {
+    var pts = this.points, lo = 0, hi = pts.length - 1;
+    if (!pts.length || t < pts[0].t || t > pts[hi].t) { return null; }
+    while (hi - lo > 1) {
+      var mid = (lo + hi) >> 1;
+      if (pts[mid].t <= t) { lo = mid; } else { hi = mid; }
+    }
+    var a = pts[lo], b = pts[hi];
+    if (a.seg !== b.seg || b.t === a.t) { return t - a.t < b.t - t ? [a.lat, a.lon] : [b.lat, b.lon]; }
+    var f = (t - a.t) / (b.t - a.t);
+    return [a.lat + (b.lat - a.lat) * f, a.lon + (b.lon - a.lon) * f];
+  };
+
+  TrackPage.prototype.showMoment = function (t) {
+    var at = t === null ? null : this.positionAt(t);
+    if (!at) { this.map.removeLayer(this.timeMarker); return; }
+    this.timeMarker.setLatLng(at);
+    if (!this.map.hasLayer(this.timeMarker)) { this.timeMarker.addTo(this.map); }
+    var node = this.timeMarker.getElement();
+    if (node) { node.setAttribute("data-time", String(t)); node.title = S.fmtTime(t); }
+  };
+
+  // --- the plots ---------------------------------------------------------------------------
+
+  TrackPage.prototype.markTime = function (t) {
+    this.markedT = t;
+    this.plots.forEach(function (u) {
+      u.redraw(false);
+      var left = u.valToPos(t, "x");
+      if (left >= 0 && left <= u.bbox.width / devicePixelRatio) { u.setCursor({ left: left, top: u.bbox.height / devicePixelRatio / 2 }); }
+    });
+  };
+
+  TrackPage.prototype.drawPlots = function (data) {
+    var self = this, box = document.getElementById("plots");
+    this.plots.forEach(function (u) { u.destroy(); });
+    this.plots = [];
+    box.innerHTML = "";
+    var keys = Object.keys(data.channels || {});
+    // Battery first, then the channels by label.
+    keys.sort(function (a, b) {
+      if (a === "battery_v" || b === "battery_v") { return a === "battery_v" ? -1 : 1; }
+      return self.label(a, data).localeCompare(self.label(b, data));
+    });
+    if (!keys.length || !(data.t || []).length) {
+      box.appendChild(el("p", { class: "muted", text: "No sensor data in this range." }));
+      return;
+    }
+    // Empty buckets between sparse fixes are joined; only a reporting gap (the track's gap_s)
+    // breaks the line, as on the map.
+    function gaps(u, sidx, idx0, idx1, nullGaps) {
+      var pxPerS = u.bbox.width / (u.scales.x.max - u.scales.x.min);
+      return nullGaps.filter(function (g) { return !self.gapS || (g[1] - g[0]) / pxPerS > self.gapS; });
+    }
+    keys.forEach(function (key, i) {
+      var ch = data.channels[key];
+      var colour = COLOURS[i % COLOURS.length];
+      var known = self.cfg.channels[key];
+      var unit = known ? known.unit : ch.unit || "";
+      var title = self.label(key, data) + (unit ? " (" + unit + ")" : "");
+      var holder = el("div", { class: "plot", "data-key": key }, [el("p", { class: "plot-title", text: title })]);
+      box.appendChild(holder);
+      var opts = {
+        width: box.clientWidth || 800,
+        height: PLOT_HEIGHT,
+        tzDate: function (ts) { return uPlot.tzDate(new Date(ts * 1000), "Etc/UTC"); },
+        cursor: { sync: { key: "track" }, drag: { x: false, y: false }, y: false },
+        legend: { show: true },
+        scales: {
+          x: { time: true, range: [self.from.getTime() / 1000, self.to.getTime() / 1000] },
+          y: { range: yRange(known) },
+        },
+        series: [
+          { label: "time (UTC)", value: function (u, v) { return v === null || v === undefined ? "–" : S.fmtTime(v); } },
+          { label: "min", stroke: colour + "66", width: 1, value: fmt(unit), gaps: gaps },
+          { label: "max", stroke: colour + "66", width: 1, value: fmt(unit), gaps: gaps },
+          { label: "mean", stroke: colour, width: 1.5, value: fmt(unit), gaps: gaps },
+        ],
+        bands: [{ series: [2, 1], fill: colour + "33" }],
+        axes: [{ values: timeLabels, space: 70 }, { size: 55 }],
+        hooks: {
+          setCursor: [function (u) {
+            var idx = u.cursor.idx;
+            self.showMoment(idx === null || idx === undefined ? null : u.posToVal(u.cursor.left, "x"));
+          }],
+          draw: [function (u) { self.drawMark(u); }],
+        },
+      };
+      self.plots.push(new uPlot(opts, [data.t, ch.min, ch.max, ch.mean], holder));
+    });
+  };
+
+  // The page's SensorChannel labels first (the same as the fleet map's), then the series'.
+  TrackPage.prototype.label = function (key, data) {
+    var known = this.cfg.channels[key], ch = (data && data.channels[key]) || {};
+    return (known && known.label) || ch.label || key;
+  };
+
+  // The moment clicked on the track, as a vertical line on every plot.
+  TrackPage.prototype.drawMark = function (u) {
+    if (this.markedT === null) { return; }
+    var x = Math.round(u.valToPos(this.markedT, "x", true));
+    if (x < u.bbox.left || x > u.bbox.left + u.bbox.width) { return; }
+    var ctx = u.ctx;
+    ctx.save();
+    ctx.strokeStyle = MARK_COLOUR;
+    ctx.lineWidth = 2 * devicePixelRatio;
+    ctx.beginPath();
+    ctx.moveTo(x, u.bbox.top);
+    ctx.lineTo(x, u.bbox.top + u.bbox.height);
+    ctx.stroke();
+    ctx.restore();
+  };
+
+  TrackPage.prototype.resizePlots = function () {
+    var width = document.getElementById("plots").clientWidth;
+    this.plots.forEach(function (u) { u.setSize({ width: width, height: PLOT_HEIGHT }); });
+  };
+
+  // The channel's plot bounds from SensorChannel when it has them, widened to the data.
+  function yRange(channel) {
+    return function (u, dataMin, dataMax) {
+      var lo = channel && channel.min !== null && channel.min !== undefined ? Math.min(channel.min, dataMin) : dataMin;
+      var hi = channel && channel.max !== null && channel.max !== undefined ? Math.max(channel.max, dataMax) : dataMax;
+      if (lo === null || hi === null) { return [0, 1]; }
+      if (hi - lo < 1e-9) { var pad = Math.abs(hi) * 0.01 || 1; lo -= pad; hi += pad; }
+      return uPlot.rangeNum(lo, hi, 0.1, true);
+    };
+  }
+
+  // 24-hour UTC clock times, with the date under the first tick of each day.
+  function timeLabels(u, splits) {
+    var lastDay = null;
+    return splits.map(function (t) {
+      var iso = new Date(t * 1000).toISOString(), day = iso.slice(5, 10), label = iso.slice(11, 16);
+      if (day !== lastDay) { label += "\n" + day; lastDay = day; }
+      return label;
+    });
+  }
+
+  function fmt(unit) {
+    return function (u, v) { return v === null || v === undefined ? "–" : S.fmtValue(v, unit); };
+  }
+
+  window.ShoresideTrackMap = function (map) {
+    S.baseMap(map);
+    window.shoresideTrack = new TrackPage(map, S.json("track-config"));
+  };
+})();

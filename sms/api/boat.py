@@ -1,0 +1,193 @@
+"""The glider's shore link on the shore side (issue 11 §6, DESIGN §5 and §7).
+
+- ``GET /api/v1/boat/numbers/``: the numbers that may address the caller's vessel, with an
+  ETag (``If-None-Match`` → 304: the glider syncs over 3G or satellite). The shore admin is
+  where numbers are managed; the glider keeps the last list it got.
+- ``POST /api/v1/boat/sms/``: a batch of the glider's SMS log, stored in the shore's log. Each
+  entry carries the glider's own id: a re-sent entry is a duplicate, one bad entry never loses
+  the good ones (the answer has the shape of the telemetry upload's).
+
+Explicit APIViews with hand-built JSON, like the other boat endpoints: the wire shapes are a
+contract with vessels in the field. :mod:`sms.services` does the writing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any
+
+from django.http import HttpResponseNotModified
+from drf_spectacular.utils import OpenApiParameter, extend_schema, inline_serializer
+from rest_framework import serializers
+from rest_framework.exceptions import ParseError
+from rest_framework.request import Request
+from rest_framework.response import Response
+
+from commands.api.boat import etag_matches
+from sms.models import (
+    E164_MAX,
+    ORIGIN_ID_MAX,
+    RAW_NUMBER_MAX,
+    AuthorisedNumber,
+    Direction,
+    Outcome,
+    Role,
+    SendStatus,
+)
+from sms.services import DETAIL_MAX, TEXT_STORE_MAX, sms_log_entry_store
+from vessels.api.boat import BoatView
+from vessels.models import Vessel
+
+# Entries per upload: the glider sends its backlog in batches of this size or fewer.
+SMS_UPLOAD_MAX_BATCH = 500
+COMMANDS_PER_SMS_MAX = 50
+
+
+def numbers_wire(vessel: Vessel) -> list[dict[str, Any]]:
+    """The numbers that may address ``vessel`` (active or not: the glider mirrors both)."""
+    entries = AuthorisedNumber.objects.filter(vessels=vessel).order_by("number")
+    return [
+        {
+            "number": entry.number,
+            "name": entry.name,
+            "role": entry.role,
+            "active": entry.active,
+            "expires_at": entry.expires_at.isoformat() if entry.expires_at else None,
+        }
+        for entry in entries
+    ]
+
+
+def numbers_etag(numbers: list[dict[str, Any]]) -> str:
+    """A strong tag over the list's content: it changes exactly when the list does."""
+    raw = json.dumps(numbers, sort_keys=True, separators=(",", ":")).encode()
+    return f'"n{hashlib.sha256(raw).hexdigest()[:24]}"'
+
+
+_NumberOut = inline_serializer(
+    "BoatAuthorisedNumber",
+    many=True,
+    fields={
+        "number": serializers.CharField(max_length=E164_MAX, help_text="E.164"),
+        "name": serializers.CharField(),
+        "role": serializers.ChoiceField(Role.choices),
+        "active": serializers.BooleanField(),
+        "expires_at": serializers.DateTimeField(allow_null=True),
+    },
+)
+
+
+class NumbersView(BoatView):
+    @extend_schema(
+        parameters=[OpenApiParameter("If-None-Match", str, OpenApiParameter.HEADER)],
+        responses={200: inline_serializer("BoatNumbers", {"numbers": _NumberOut}), 304: None},
+        tags=["boat"],
+    )
+    def get(self, request: Request) -> Response | HttpResponseNotModified:
+        """The authorised numbers that may address this vessel; `304` when the ETag matches."""
+        numbers = numbers_wire(self.vessel(request))
+        etag = numbers_etag(numbers)
+        if etag_matches(request.META.get("HTTP_IF_NONE_MATCH"), etag):
+            response = HttpResponseNotModified()
+        else:
+            response = Response({"numbers": numbers})
+        response["ETag"] = etag
+        return response
+
+
+class SmsEntryIn(serializers.Serializer):
+    """One entry of the vessel's SMS log as the glider uploads it."""
+
+    id = serializers.CharField(max_length=ORIGIN_ID_MAX, help_text="the vessel's own, stable id")
+    direction = serializers.ChoiceField(Direction.choices)
+    number = serializers.CharField(max_length=RAW_NUMBER_MAX, trim_whitespace=False)
+    text = serializers.CharField(
+        max_length=TEXT_STORE_MAX, allow_blank=True, trim_whitespace=False, required=False
+    )
+    created_at = serializers.DateTimeField(help_text="when the vessel logged it")
+    received_at = serializers.DateTimeField(required=False, allow_null=True)
+    modem_timestamp = serializers.DateTimeField(required=False, allow_null=True)
+    sent_at = serializers.DateTimeField(required=False, allow_null=True)
+    authorised = serializers.BooleanField(required=False, default=False)
+    outcome = serializers.ChoiceField(
+        Outcome.choices, required=False, allow_blank=True, help_text="incoming only"
+    )
+    detail = serializers.CharField(max_length=DETAIL_MAX, required=False, allow_blank=True)
+    status = serializers.ChoiceField(
+        SendStatus.choices, required=False, allow_blank=True, help_text="outgoing only"
+    )
+    status_detail = serializers.CharField(max_length=DETAIL_MAX, required=False, allow_blank=True)
+    reference = serializers.CharField(max_length=20, required=False, allow_blank=True)
+    parsed = serializers.ListField(child=serializers.DictField(), required=False)
+    reply_to = serializers.CharField(
+        max_length=ORIGIN_ID_MAX, required=False, allow_null=True, help_text="the id it answers"
+    )
+    commands = serializers.ListField(
+        child=serializers.UUIDField(),
+        required=False,
+        max_length=COMMANDS_PER_SMS_MAX,
+        help_text="uids of the commands it created",
+    )
+
+    def validate(self, attrs: dict[str, Any]) -> dict[str, Any]:
+        status = attrs.get("status", "")
+        if attrs["direction"] == Direction.IN and status:
+            raise serializers.ValidationError({"status": ["only an outgoing SMS has a status"]})
+        if attrs["direction"] == Direction.OUT and not status:
+            raise serializers.ValidationError({"status": ["an outgoing SMS needs its status"]})
+        if attrs["direction"] == Direction.OUT and attrs.get("outcome"):
+            raise serializers.ValidationError({"outcome": ["only an incoming SMS has one"]})
+        return attrs
+
+
+def entries_from_body(data: Any) -> list[Any]:
+    """A list of entries, or {"messages": [...]}; anything else is a 400 naming the problem."""
+    if isinstance(data, dict) and "messages" in data:
+        data = data["messages"]
+    if not isinstance(data, list):
+        raise ParseError('Expected a JSON list of SMS log entries, or {"messages": [...]}.')
+    if len(data) > SMS_UPLOAD_MAX_BATCH:
+        raise ParseError(f"At most {SMS_UPLOAD_MAX_BATCH} entries per upload.")
+    return data
+
+
+_UploadResult = inline_serializer(
+    "SmsUploadResult",
+    {
+        "accepted": serializers.IntegerField(),
+        "duplicates": serializers.IntegerField(),
+        "rejected": serializers.ListField(child=serializers.DictField()),
+    },
+)
+
+
+class SmsLogView(BoatView):
+    @extend_schema(
+        request=inline_serializer("SmsUpload", {"messages": SmsEntryIn(many=True)}),
+        responses={200: _UploadResult},
+        tags=["boat"],
+    )
+    def post(self, request: Request) -> Response:
+        """Store a batch of the vessel's SMS log (`{"messages": [...]}` or the bare list). Bad
+        entries are reported by index, the good ones kept; re-sent ids count as duplicates."""
+        vessel = self.vessel(request)
+        accepted = duplicates = 0
+        rejected: list[dict[str, Any]] = []
+        seen: set[str] = set()
+        for index, raw in enumerate(entries_from_body(request.data)):
+            entry = SmsEntryIn(data=raw) if isinstance(raw, dict) else None
+            if entry is None or not entry.is_valid():
+                errors = entry.errors if entry is not None else {"entry": ["not an object"]}
+                rejected.append({"index": index, "errors": errors})
+                continue
+            data = entry.validated_data
+            if data["id"] in seen:
+                duplicates += 1
+                continue
+            seen.add(data["id"])
+            if sms_log_entry_store(vessel=vessel, entry=data):
+                accepted += 1
+            else:
+                duplicates += 1
+        return Response({"accepted": accepted, "duplicates": duplicates, "rejected": rejected})

@@ -1,0 +1,477 @@
+"""The glider's link to a shore Shoreside (issue 11 §6, DESIGN §5 and §7).
+
+On the glider the bridge runs with a local database: the glider is its own little Shoreside.
+When an upstream URL and a vessel key are configured it is also a vessel of a shore Shoreside,
+through the boat API like any boat:
+
+- fixes (with their readings) go up from the local database. The local database is the store:
+  a watermark (the last local Fix id the shore answered for) is kept in the edge client's
+  outbox file, so nothing is lost while the link is down and a re-send after a crash is a
+  duplicate on the shore (unique vessel + recorded_at);
+- the vessel's shore commands are polled with an ETag and queued locally under the *same uid*
+  (``commands.services.command_enqueue``), so a re-poll never queues one twice and the Level 2
+  source hands them to the C&C like SMS commands; their progress goes back as acks through the
+  outbox (``acknowledged`` once handed to the C&C, then ``done``/``failed`` with the detail; a
+  command superseded, cancelled or expired here is ``failed`` there), which survives outages
+  and restarts. The outbox's command table remembers which shore uids are still running here;
+- the authorised numbers are fetched with an ETag and replace the local list for this vessel
+  (``sms.services.authorised_numbers_replace``); while the shore is away the last list stays;
+- the SMS log goes up in id order behind a second watermark (an outgoing SMS still waiting for
+  the modem is held back for a while, so that the shore gets its real send status).
+
+Each ``do_one_<thing>()`` is one small unit of work returning True if it got something done;
+:meth:`ShoreLink.do_one` runs the ones that are due and :meth:`ShoreLink.run` loops in a thread
+of its own. No failure here ever reaches the caller: a transport failure is logged once and
+the link backs off (doubling up to ``max_backoff_s``), and SMS control carries on without it.
+Transport and outbox are the edge client's (``edge_client.transports``, ``edge_client.outbox``).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import logging
+import threading
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from django.conf import settings
+from django.db import DatabaseError, close_old_connections, connections
+from django.utils import timezone
+from django.utils.dateparse import parse_datetime
+
+from commands.errors import CatalogError, CommandError
+from commands.lifecycle import FINAL, Status
+from commands.models import Command, Source
+from commands.services import command_enqueue
+from edge_client.outbox import Outbox, settle_fix_batch
+from edge_client.transports.base import Transport, TransportError
+from edge_client.transports.http import HttpTransport
+from sms.bridge.shore_config import ShoreConfig
+from sms.models import Direction, SendStatus, SmsMessage
+from sms.services import authorised_numbers_replace
+from telemetry.models import Fix
+from vessels.models import Vessel
+
+log = logging.getLogger(__name__)
+
+# Replies whose send status is still to come: queued for the modem, or held for the C&C's answer.
+UNSETTLED = (SendStatus.PENDING, SendStatus.WAITING)
+
+TELEMETRY_PATH = "/api/v1/boat/telemetry/"
+COMMANDS_PATH = "/api/v1/boat/commands/"
+ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
+NUMBERS_PATH = "/api/v1/boat/numbers/"
+SMS_PATH = "/api/v1/boat/sms/"
+# The shore will never take these acks (unknown command, illegal transition, malformed):
+# the same rule as the edge client's.
+ACK_DROP_STATUSES = frozenset({400, 404, 409})
+CREATED_BY = "shore"  # a local command queued from the shore: created_by and event actor
+FIX_WATERMARK = "shore_fix_watermark"  # outbox counters: the last local Fix id settled
+SMS_WATERMARK = "shore_sms_watermark"  # the last local SmsMessage id uploaded
+OUTBOX_NAME = "wg-shore-outbox.sqlite3"
+HANDED_OVER = (Status.SENT, Status.ACKNOWLEDGED)  # local statuses acked as "acknowledged"
+
+
+@dataclass
+class _Step:
+    run: Callable[[], bool]
+    period_s: float
+    needs_link: bool = True
+    due: float = 0.0
+
+
+@dataclass
+class LinkState:
+    """What an operator (or a test) wants to know about the link."""
+
+    reachable: bool | None = None  # None: not tried yet
+    failures: int = 0
+    down_until: float = 0.0
+    last_error: str = ""
+    numbers_synced_at: dt.datetime | None = None
+    counts: dict[str, int] = field(default_factory=dict)
+
+
+class ShoreLink:
+    """The glider side of the shore link for one vessel (see the module docstring).
+
+    ``transport`` and ``outbox`` default to the edge client's HTTP transport (TLS verified,
+    against ``ca_bundle`` if given) and an outbox at ``config.outbox_path``.
+    """
+
+    def __init__(
+        self,
+        *,
+        vessel: Vessel,
+        config: ShoreConfig,
+        transport: Transport | None = None,
+        outbox: Outbox | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.vessel = vessel
+        self.config = config
+        # retries=0: the link's own backoff decides when to try again, without sleeping here.
+        self.transport = transport or HttpTransport(
+            base_url=config.url,
+            key=config.key,
+            timeout_s=config.timeout_s,
+            retries=0,
+            ca_bundle=config.ca_bundle,
+        )
+        if outbox is None:
+            outbox = Outbox(config.outbox_path or Path(settings.DATA_DIR) / OUTBOX_NAME)
+        self.outbox = outbox
+        self.clock = clock
+        self.state = LinkState()
+        self.commands_etag: str | None = None
+        self.numbers_etag: str | None = None
+        self._handed_over_acked: set[str] = set()
+        self._closed = False
+        self._steps = [
+            _Step(self.do_one_report_results, config.push_period_s, needs_link=False),
+            _Step(self.do_one_flush_acks, config.push_period_s),
+            _Step(self.do_one_push_fixes, config.push_period_s),
+            _Step(self.do_one_poll_commands, config.poll_period_s),
+            _Step(self.do_one_sync_numbers, config.numbers_period_s),
+            _Step(self.do_one_upload_sms, config.sms_period_s),
+        ]
+
+    # -- the loop -------------------------------------------------------------------------------
+
+    def do_one(self) -> bool:
+        """Run every step that is due; True if any of them got something done. Never raises."""
+        worked = False
+        for step in self._steps:
+            now = self.clock()
+            if now < step.due or (step.needs_link and now < self.state.down_until):
+                continue
+            progressed = self._guarded(step.run)
+            # A step with more to do (a backlog) runs again at once; otherwise next period.
+            step.due = now if progressed else now + step.period_s
+            worked = worked or progressed
+        return worked
+
+    def run(self, stop: threading.Event, idle_s: float = 1.0) -> None:
+        """Loop until ``stop`` is set (a thread of its own), then close."""
+        log.info("shore link to %s for %s", self.config.url, self.vessel.slug)
+        try:
+            while not stop.is_set():
+                close_old_connections()  # a long-lived thread: drop a broken or stale one
+                if not self.do_one():
+                    stop.wait(idle_s)
+        finally:
+            self.close()
+            connections.close_all()  # this thread's own connection
+
+    def kick(self) -> None:
+        """Make every step due now (a test, or the bridge after a power-up)."""
+        for step in self._steps:
+            step.due = 0.0
+        self.state.down_until = 0.0
+
+    def close(self) -> None:
+        """Close the transport and the outbox; a second call does nothing."""
+        if self._closed:
+            return
+        self._closed = True
+        self.transport.close()
+        self.outbox.close()
+
+    def _guarded(self, step: Callable[[], bool]) -> bool:
+        try:
+            result = step()
+        except TransportError as exc:
+            self._link_failed(exc)
+            return False
+        except DatabaseError as exc:
+            log.error("shore link: local database: %s", exc)
+            return False
+        except Exception:  # a bug must not end the link, nor reach the bridge
+            log.exception("shore link: %s failed", getattr(step, "__name__", step))
+            return False
+        return result
+
+    def _link_ok(self) -> None:
+        if self.state.reachable is not True:
+            log.info("shore %s reachable", self.config.url)
+        self.state.reachable = True
+        self.state.failures = 0
+        self.state.down_until = 0.0
+
+    def _link_failed(self, exc: TransportError) -> None:
+        self.state.failures += 1
+        wait = min(self.config.max_backoff_s, 2.0 ** min(self.state.failures, 16))
+        self.state.down_until = self.clock() + wait
+        self.state.last_error = str(exc)
+        if self.state.reachable is not False:
+            if exc.status in (401, 403):
+                log.error("the shore refused the key (HTTP %s); check WG_SHORE_KEY", exc.status)
+            else:
+                log.warning("shore unreachable: %s; data stays here until it is back", exc)
+        self.state.reachable = False
+
+    def _count(self, name: str, by: int = 1) -> None:
+        self.state.counts[name] = self.state.counts.get(name, 0) + by
+
+    def _set_counter(self, name: str, value: int) -> None:
+        self.outbox.bump(name, value - self.outbox.counter(name))
+
+    # -- fixes up -------------------------------------------------------------------------------
+
+    def do_one_push_fixes(self) -> bool:
+        """Send the next batch of local fixes after the watermark; True if a batch was settled."""
+        after = self.outbox.counter(FIX_WATERMARK)
+        fixes = list(
+            Fix.objects.filter(vessel=self.vessel, pk__gt=after).order_by("pk")[
+                : self.config.batch_size
+            ]
+        )
+        if not fixes:
+            return False
+        ids = [fix.pk for fix in fixes]
+        try:
+            response = self.transport.post_json(
+                TELEMETRY_PATH, {"fixes": [fix_wire(f) for f in fixes]}
+            )
+        except TransportError as exc:
+            if exc.status != 400:
+                raise
+            if len(fixes) > 1:  # the body refused whole: go one at a time to find the culprit
+                return self._push_one_by_one(fixes)
+            log.warning("shore refuses local fix %d (%s); skipping it", ids[0], exc)
+            self._set_counter(FIX_WATERMARK, ids[0])
+            return True
+        self._link_ok()
+        settlement = settle_fix_batch(ids, response.json())
+        if settlement.keep_reason:
+            log.warning("fixes %d–%d stay unsent: %s", ids[0], ids[-1], settlement.keep_reason)
+            return False
+        for fix_id, errors in settlement.rejected:
+            log.warning("shore rejected local fix %d: %s; skipping it", fix_id, errors)
+        self._count("fixes_pushed", len(ids) - len(settlement.rejected))
+        self._set_counter(FIX_WATERMARK, ids[-1])
+        return True
+
+    def _push_one_by_one(self, fixes: list[Fix]) -> bool:
+        for fix in fixes:
+            try:
+                response = self.transport.post_json(TELEMETRY_PATH, {"fixes": [fix_wire(fix)]})
+            except TransportError as exc:
+                if exc.status != 400:
+                    raise
+                log.warning("shore refuses local fix %d (%s); skipping it", fix.pk, exc)
+            else:
+                if settle_fix_batch([fix.pk], response.json()).keep_reason:
+                    return False
+                self._count("fixes_pushed")
+            self._set_counter(FIX_WATERMARK, fix.pk)
+        return True
+
+    # -- commands down, acks up -----------------------------------------------------------------
+
+    def do_one_poll_commands(self) -> bool:
+        """Poll the shore's commands for this vessel (ETag); queue the new ones here."""
+        response = self.transport.get(COMMANDS_PATH, self.commands_etag)
+        self._link_ok()
+        if response.status == 304:
+            return False
+        data = response.json()
+        commands = data.get("commands") if isinstance(data, dict) else None
+        if not isinstance(commands, list):
+            raise TransportError("the shore's commands answer has no commands list")
+        taken = sum(self._take(command) for command in commands if isinstance(command, dict))
+        self.commands_etag = response.etag
+        if taken:
+            log.info("%d command(s) from the shore queued", taken)
+        return taken > 0
+
+    def _take(self, wire: dict[str, Any]) -> bool:
+        """Queue one shore command here under its own uid; True if it was new here."""
+        try:
+            uid = uuid.UUID(str(wire.get("uid")))
+        except ValueError:
+            log.warning("shore command without a valid uid: %r", wire)
+            return False
+        key = str(uid)
+        local = Command.objects.filter(uid=uid).only("vessel_id").first()
+        if local is not None and local.vessel_id != self.vessel.pk:
+            log.error("shore command %s has the uid of another vessel's command here", key)
+            return False
+        if local is None:
+            try:
+                command_enqueue(
+                    vessel=self.vessel,
+                    kind=str(wire.get("kind")),
+                    params=wire.get("params") or {},
+                    source=Source.API,
+                    created_by=CREATED_BY,
+                    expires_at=_when(wire.get("expires_at")),
+                    uid=uid,
+                )
+            except (CatalogError, CommandError) as exc:
+                # Refused here (the glider's catalog, an inactive vessel): the shore hears why.
+                log.warning("shore command %s refused here: %s", key, exc)
+                if self.outbox.command_claim(key, str(wire.get("kind"))[:20]):
+                    self.outbox.add_ack(key, Status.FAILED, f"refused by the glider: {exc}")
+                    self.outbox.command_finish(key)
+                return False
+        # Claimed after the local commit: a crash in between finds the command here on the
+        # next poll (the shore offers it until acked) and claims it then.
+        return self.outbox.command_claim(key, str(wire.get("kind"))[:20])
+
+    def do_one_report_results(self) -> bool:
+        """Queue an ack for each shore command whose progress here is news (no network)."""
+        running = dict(self.outbox.commands_interrupted())
+        if not running:
+            return False
+        found = {
+            str(c.uid): c
+            for c in Command.objects.filter(uid__in=list(running)).only(
+                "uid", "status", "result_detail"
+            )
+        }
+        queued = 0
+        for key in running:
+            command = found.get(key)
+            if command is None:
+                self.outbox.add_ack(key, Status.FAILED, "lost on the glider")
+            elif command.status in FINAL:
+                status = Status.DONE if command.status == Status.DONE else Status.FAILED
+                detail = command.result_detail
+                if command.status not in (Status.DONE, Status.FAILED):
+                    detail = f"{command.status} on the glider" + (f": {detail}" if detail else "")
+                self.outbox.add_ack(key, status, detail)
+            elif command.status in HANDED_OVER and key not in self._handed_over_acked:
+                self.outbox.add_ack(key, Status.ACKNOWLEDGED, "handed over to the C&C")
+                self._handed_over_acked.add(key)
+                queued += 1
+                continue
+            else:
+                continue
+            self.outbox.command_finish(key)
+            self._handed_over_acked.discard(key)
+            queued += 1
+        return queued > 0
+
+    def do_one_flush_acks(self) -> bool:
+        """Send the queued acks, oldest first; True if any left the outbox."""
+        items = self.outbox.peek("ack", 50)
+        for item in items:
+            body = item.body
+            try:
+                self.transport.post_json(
+                    ACK_PATH.format(uid=body["uid"]),
+                    {"status": body["status"], "detail": body["detail"]},
+                )
+            except TransportError as exc:
+                if not (exc.permanent and exc.status in ACK_DROP_STATUSES):
+                    raise
+                log.warning("shore refuses ack %s for good (%s)", body, exc)
+                self.outbox.bump("dropped_acks")
+            self._link_ok()
+            self.outbox.remove([item.id])
+            self._count("acks_sent")
+        return bool(items)
+
+    # -- authorised numbers down ----------------------------------------------------------------
+
+    def do_one_sync_numbers(self) -> bool:
+        """Fetch the vessel's authorised numbers (ETag) and make them the local list."""
+        response = self.transport.get(NUMBERS_PATH, self.numbers_etag)
+        self._link_ok()
+        self.state.numbers_synced_at = timezone.now()
+        if response.status == 304:
+            return False
+        data = response.json()
+        numbers = data.get("numbers") if isinstance(data, dict) else None
+        if not isinstance(numbers, list) or not all(isinstance(n, dict) for n in numbers):
+            raise TransportError("the shore's numbers answer has no list of numbers")
+        result = authorised_numbers_replace(vessel=self.vessel, numbers=numbers)
+        self.numbers_etag = response.etag
+        log.info(
+            "authorised numbers from the shore: %d added, %d updated, %d removed, %d skipped",
+            result.added,
+            result.updated,
+            result.removed,
+            len(result.rejected),
+        )
+        return False  # nothing more to fetch until the next period
+
+    # -- the SMS log up -------------------------------------------------------------------------
+
+    def do_one_upload_sms(self) -> bool:
+        """Upload the next batch of the local SMS log; True if a batch went up."""
+        after = self.outbox.counter(SMS_WATERMARK)
+        rows = list(
+            SmsMessage.objects.filter(vessel=self.vessel, pk__gt=after)
+            .prefetch_related("commands")
+            .order_by("pk")[: self.config.batch_size]
+        )
+        held_back = timezone.now() - dt.timedelta(seconds=self.config.sms_pending_grace_s)
+        batch: list[SmsMessage] = []
+        for message in rows:
+            waiting = message.direction == Direction.OUT and message.status in UNSETTLED
+            if waiting and message.created_at > held_back:
+                break  # its send status is still to come; what follows waits behind it
+            batch.append(message)
+        if not batch:
+            return False
+        response = self.transport.post_json(SMS_PATH, {"messages": [sms_wire(m) for m in batch]})
+        self._link_ok()
+        answer = response.json()
+        if not isinstance(answer, dict) or not isinstance(answer.get("rejected"), list):
+            raise TransportError("the shore's SMS upload answer is not the expected object")
+        for rejected in answer["rejected"]:
+            log.warning("shore rejected SMS log entry %s; skipping it", rejected)
+        self._count("sms_uploaded", len(batch))
+        self._set_counter(SMS_WATERMARK, batch[-1].pk)
+        return True
+
+
+def _when(value: Any) -> dt.datetime | None:
+    if not isinstance(value, str) or not value:
+        return None
+    return parse_datetime(value)
+
+
+def _iso(value: dt.datetime | None) -> str | None:
+    return value.isoformat() if value is not None else None
+
+
+def fix_wire(fix: Fix) -> dict[str, Any]:
+    """A local fix as ``POST boat/telemetry/`` takes it (DESIGN §5)."""
+    wire: dict[str, Any] = {"time": fix.recorded_at.isoformat(), "lat": fix.lat, "lon": fix.lon}
+    for name in ("heading_deg", "speed_mps", "battery_v"):
+        value = getattr(fix, name)
+        if value is not None:
+            wire[name] = value
+    if fix.readings:
+        wire["readings"] = fix.readings
+    return wire
+
+
+def sms_wire(message: SmsMessage) -> dict[str, Any]:
+    """A local SMS log entry as ``POST boat/sms/`` takes it; ``id`` is the local pk."""
+    return {
+        "id": str(message.pk),
+        "direction": message.direction,
+        "number": message.number,
+        "text": message.text,
+        "created_at": message.created_at.isoformat(),
+        "received_at": _iso(message.received_at),
+        "modem_timestamp": _iso(message.modem_timestamp),
+        "sent_at": _iso(message.sent_at),
+        "authorised": message.authorised,
+        "outcome": message.outcome,
+        "detail": message.detail,
+        "status": message.status,
+        "status_detail": message.status_detail,
+        "reference": message.reference,
+        "parsed": message.parsed or [],
+        "reply_to": str(message.reply_to_id) if message.reply_to_id else None,
+        "commands": [str(c.uid) for c in message.commands.all()],
+    }

@@ -1,0 +1,107 @@
+"""Replies that say what really happened: a command's outcome as an SMS reply shows it.
+
+References: issue 11 §3 (``#FHEAD 230 OK``, ``#FHEAD 230 FAILED invalid data``; ``QUEUED`` when
+the reply window passes, then one more SMS when the command ends); DESIGN §7 (a NAK goes back
+to the sender, never silently); ``sms.bridge.commands`` (the result_detail texts read here:
+``C&C: NAK {code}: {meaning}``, ``refused by the inner command table: {reason}``, and
+``no answer from the C&C box``).
+
+A held reply keeps its answers as JSON (``SmsMessage.parsed`` of the outgoing message):
+``{"echo", "outcome", "error", "command"}`` where ``command`` is the pk of the command whose
+outcome replaces ``outcome`` once it ends. Pure: no Django, no I/O.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from sms.language import Answer, compose_reply
+
+QUEUED = "QUEUED"
+OK = "OK"
+FAILED = "FAILED"
+# Statuses after which a command never changes (commands.lifecycle.FINAL, spelled here to stay
+# pure); the others (queued, sent, acknowledged) are still on their way.
+ENDED = {"done": OK, "failed": FAILED, "cancelled": "CANCELLED", "superseded": "SUPERSEDED",
+         "expired": "EXPIRED"}  # fmt: skip
+_DETAIL_PREFIXES = (
+    re.compile(r"^C&C: NAK \d+: (?P<reason>.*)$"),
+    re.compile(r"^refused by the inner command table: (?P<reason>.*)$"),
+)
+
+
+def command_outcome(status: str, detail: str = "") -> str | None:
+    """A command's outcome as a reply says it (``OK``, ``FAILED invalid data``), or None while
+    it has not ended."""
+    word = ENDED.get(status)
+    if word is None:
+        return None
+    if word != FAILED:
+        return word
+    reason = detail.strip()
+    for pattern in _DETAIL_PREFIXES:
+        match = pattern.match(reason)
+        if match:
+            reason = match.group("reason")
+            break
+    return f"{FAILED} {reason}" if reason else FAILED
+
+
+def answer_record(answer: Answer, command: int | None = None) -> dict[str, Any]:
+    """One answer of a held reply as stored JSON."""
+    record: dict[str, Any] = {"echo": answer.echo, "outcome": answer.outcome}
+    if answer.error:
+        record["error"] = True
+    if command is not None:
+        record["command"] = command
+    return record
+
+
+def settle(
+    records: Sequence[Mapping[str, Any]], outcomes: Mapping[int, str | None]
+) -> tuple[str, bool]:
+    """The reply text with each command's outcome where it has one, and whether every command
+    has ended. ``outcomes`` maps command pk to :func:`command_outcome`; a command missing from
+    it (deleted) reads as ended with its stored outcome."""
+    answers: list[Answer] = []
+    ended = True
+    for record in records:
+        outcome = str(record.get("outcome", ""))
+        error = bool(record.get("error", False))
+        pk = record.get("command")
+        if isinstance(pk, int) and pk in outcomes:
+            settled = outcomes[pk]
+            if settled is None:
+                ended = False
+            else:
+                outcome = settled
+                error = settled.startswith(FAILED)
+        answers.append(Answer(str(record.get("echo", "")), outcome, error=error))
+    return compose_reply(answers), ended
+
+
+# The glider's readings as #STATUS gives them: (reading, label, format), in this order; others
+# are left out (one SMS is short). Names: sms/bridge/sensor_layouts.toml.
+_READINGS = (
+    ("humidity_temp_c", "", "{:.1f}C"),
+    ("humidity_pct", "", "{:.0f}%RH"),
+    ("pressure_kpa", "", "{:.1f}kPa"),
+    ("leak1", "leak ", "{:.0f}"),
+    ("leak2", "/", "{:.0f}"),
+)
+
+
+def readings_text(readings: Mapping[str, Any]) -> str:
+    """``21.3C 45%RH 101.3kPa leak 0/0`` from the readings present (numbers only)."""
+    parts: list[str] = []
+    for name, label, form in _READINGS:
+        value = readings.get(name)
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            text = label + form.format(value)
+            if label == "/" and parts and parts[-1].startswith("leak "):
+                parts[-1] += text
+            else:
+                parts.append(text.lstrip("/"))
+    return " ".join(parts)

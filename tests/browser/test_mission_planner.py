@@ -1,0 +1,176 @@
+"""The mission planner in a real browser: click waypoints onto the map, drag one, save, reload
+and find the mission intact; import a Mission Planner .waypoints file and see it on the map."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from selenium.webdriver.common.action_chains import ActionChains
+from selenium.webdriver.common.by import By
+from selenium.webdriver.support.ui import Select
+
+from telemetry.services import fix_ingest
+from tests.browser.support import js, log_in, shot, wait_for
+from tests.conftest import make_user
+from vessels.missions import legs
+from vessels.models import Mission, Vessel
+from vessels.services import mission_save_items
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
+
+PLANNER_PERMS = [
+    "vessels.view_vessel",
+    "vessels.view_mission",
+    "vessels.add_mission",
+    "vessels.change_mission",
+    "vessels.view_missionitem",
+    "vessels.add_missionitem",
+    "vessels.change_missionitem",
+    "vessels.delete_missionitem",
+    "commands.add_command",  # to send a mission
+]
+
+
+@pytest.fixture
+def planner_user(db: None):
+    return make_user("mia", PLANNER_PERMS)
+
+
+def markers(browser) -> list:
+    return browser.find_elements(By.CSS_SELECTOR, "#mission-map .waypoint-icon")
+
+
+def planner_rows(browser) -> list[str]:
+    return [
+        td.text for td in browser.find_elements(By.CSS_SELECTOR, "#planner-list .planner-position")
+    ]
+
+
+def open_planner(browser, url: str) -> None:
+    browser.get(url)
+    wait_for(browser, lambda b: js(b, "return !!window.shoresidePlanner"))
+    js(browser, "document.querySelector('fieldset.planner').scrollIntoView()")
+
+
+def test_a_three_point_mission_is_clicked_onto_the_map_dragged_saved_and_reloaded(
+    browser, live_server, planner_user, vessel_a: Vessel, make_fix
+) -> None:
+    fix_ingest(vessel=vessel_a, records=[make_fix(lat=-31.9790, lon=115.8170)])
+    log_in(browser, live_server, planner_user)
+    open_planner(browser, live_server.url + "/admin/vessels/mission/add/")
+    browser.find_element(By.NAME, "name").send_keys("Matilda Bay survey")
+    Select(browser.find_element(By.NAME, "vessel")).select_by_visible_text("SPAB")
+    js(browser, "document.querySelector('fieldset.planner').scrollIntoView()")
+    shot(browser, "planner-1-empty")
+
+    the_map = browser.find_element(By.ID, "mission-map")
+    for dx, dy in ((-150, 80), (0, -100), (150, 60)):
+        ActionChains(browser).move_to_element_with_offset(the_map, dx, dy).click().perform()
+    wait_for(browser, lambda b: len(markers(b)) == 3)
+    before = planner_rows(browser)
+    assert len(before) == 3
+    assert "3 waypoints" in browser.find_element(By.ID, "planner-total").text
+    shot(browser, "planner-2-three-waypoints")
+
+    second = next(m for m in markers(browser) if m.text == "2")
+    ActionChains(browser).drag_and_drop_by_offset(second, 90, 40).perform()
+    wait_for(browser, lambda b: planner_rows(b)[1] != before[1])
+    after = planner_rows(browser)
+    assert after[0] == before[0] and after[2] == before[2]
+    shot(browser, "planner-3-dragged")
+
+    browser.find_element(By.NAME, "_continue").click()
+    wait_for(browser, lambda b: "/change/" in b.current_url)
+    mission = Mission.objects.get(name="Matilda Bay survey")
+    saved = [(i.seq, f"{i.lat:.5f}, {i.lon:.5f}") for i in mission.items.order_by("seq")]
+    assert saved == [(1, after[0]), (2, after[1]), (3, after[2])]
+    assert mission.vessel == vessel_a
+
+    open_planner(browser, browser.current_url)  # a fresh load: what the server kept
+    wait_for(browser, lambda b: len(markers(b)) == 3)
+    assert planner_rows(browser) == after
+    shot(browser, "planner-4-reloaded")
+
+    # The planner's legs are the server's (vessels/missions.py), speed changes included.
+    rows = [
+        {"lat": i.lat, "lon": i.lon, "hold_s": 0, "speed_mps": 3.0 if i.seq == 2 else None}
+        for i in mission.items.all()
+    ]
+    mission_save_items(mission=mission, items=rows)  # a speed change from item 2 on
+    open_planner(browser, browser.current_url)
+    shown = js(
+        browser,
+        "var p = window.shoresidePlanner; return p.legs(p.items(), p.vessel().cruise).legs"
+        ".slice(1).map(function (l) { return [l.distance, l.time]; })",
+    )
+    items = [{"lat": i.lat, "lon": i.lon, "speed_mps": i.speed_mps} for i in mission.items.all()]
+    server = legs(items, cruise_speed_mps=vessel_a.cruise_speed_mps, end="stop")
+    assert shown == [
+        [pytest.approx(leg.distance_m, rel=1e-9), pytest.approx(leg.time_s, rel=1e-9)]
+        for leg in server
+    ]
+
+
+def test_deleting_and_reordering_in_the_list_keeps_rows_and_map_in_step(
+    browser, live_server, planner_user, vessel_a: Vessel
+) -> None:
+    log_in(browser, live_server, planner_user)
+    open_planner(browser, live_server.url + "/admin/vessels/mission/add/")
+    browser.find_element(By.NAME, "name").send_keys("Reorder")
+    the_map = browser.find_element(By.ID, "mission-map")
+    for dx in (-120, 0, 120):
+        ActionChains(browser).move_to_element_with_offset(the_map, dx, 0).click().perform()
+    wait_for(browser, lambda b: len(markers(b)) == 3)
+    first, second, third = planner_rows(browser)
+    browser.find_elements(By.CSS_SELECTOR, "#planner-list .planner-down")[0].click()
+    assert planner_rows(browser) == [second, first, third]
+    browser.find_elements(By.CSS_SELECTOR, "#planner-list .planner-delete")[2].click()
+    wait_for(browser, lambda b: len(markers(b)) == 2)
+    assert planner_rows(browser) == [second, first]
+    browser.find_element(By.NAME, "_continue").click()
+    wait_for(browser, lambda b: "/change/" in b.current_url)
+    items = Mission.objects.get(name="Reorder").items.order_by("seq")
+    assert [f"{i.lat:.5f}, {i.lon:.5f}" for i in items] == [second, first]
+
+
+WAYPOINTS = """QGC WPL 110
+0\t1\t0\t16\t0\t0\t0\t0\t-31.979000\t115.817000\t0.000000\t1
+1\t0\t3\t178\t0\t2.5\t0\t0\t0\t0\t0\t1
+2\t0\t3\t16\t10\t0\t0\t0\t-31.980000\t115.820000\t0.000000\t1
+3\t0\t3\t16\t0\t0\t0\t0\t-31.982000\t115.823000\t0.000000\t1
+4\t0\t3\t16\t0\t0\t0\t0\t-31.978500\t115.824000\t0.000000\t1
+"""
+
+
+def test_a_mission_planner_waypoints_file_is_imported_and_shown_on_the_map(
+    browser, live_server, planner_user, vessel_a: Vessel, tmp_path: Path
+) -> None:
+    path = tmp_path / "bay.waypoints"
+    path.write_text(WAYPOINTS)
+    log_in(browser, live_server, planner_user)
+    browser.get(live_server.url + "/admin/vessels/mission/")
+    browser.find_element(By.CSS_SELECTOR, 'a[href$="/mission/import/"]').click()
+    browser.find_element(By.NAME, "file").send_keys(str(path))
+    Select(browser.find_element(By.NAME, "vessel")).select_by_visible_text("SPAB")
+    shot(browser, "import-1-form")
+    browser.find_element(By.CSS_SELECTOR, "input[type=submit]").click()
+    wait_for(browser, lambda b: "/change/" in b.current_url)
+    wait_for(browser, lambda b: js(b, "return !!window.shoresidePlanner"))
+    wait_for(browser, lambda b: len(markers(b)) == 3)
+    js(browser, "document.querySelector('fieldset.planner').scrollIntoView()")
+    assert planner_rows(browser) == [
+        "-31.98000, 115.82000",
+        "-31.98200, 115.82300",
+        "-31.97850, 115.82400",
+    ]
+    assert "Imported" in browser.page_source
+    shot(browser, "import-2-on-the-map")
+    js(browser, "window.scrollTo(0, 0)")
+    assert browser.find_element(By.CSS_SELECTOR, ".send-mission button").text.upper() == (
+        "SEND TO SPAB"
+    )
+    shot(browser, "import-3-send-button")
+    mission = Mission.objects.get()
+    assert [i.speed_mps for i in mission.items.order_by("seq")] == [2.5, None, None]
+    assert (mission.home_lat, mission.home_lon) == (-31.979, 115.817)

@@ -1,0 +1,151 @@
+"""The shore link's boat endpoints: the vessel's authorised numbers and its SMS log upload."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+
+import pytest
+
+from commands.services import command_enqueue
+from sms.models import SmsMessage
+from sms.services import authorised_number_authorise, authorised_number_deauthorise
+from tests.conftest import boat_client
+from vessels.services import vessel_key_issue
+
+NUMBERS = "/api/v1/boat/numbers/"
+SMS = "/api/v1/boat/sms/"
+AT = dt.datetime(2026, 11, 25, 6, 0, tzinfo=dt.UTC)
+
+
+@pytest.fixture
+def glider_boat(glider):
+    return boat_client(vessel_key_issue(vessel=glider, label="glider")[1])
+
+
+def entry(ident: str, **extra) -> dict:
+    base = {
+        "id": ident,
+        "direction": "in",
+        "number": "+61412345678",
+        "text": "#FHEAD 230",
+        "created_at": AT.isoformat(),
+        "received_at": AT.isoformat(),
+        "authorised": True,
+        "outcome": "accepted",
+    }
+    return {**base, **extra}
+
+
+def test_numbers_lists_only_those_that_may_address_the_vessel(glider, vessel_a, glider_boat):
+    authorise = authorised_number_authorise
+    authorise(number="0412 345 678", vessels=[glider], role="control", name="Ana")
+    authorise(number="+61400000001", vessels=[vessel_a], role="control", name="Other boat")
+    authorise(number="+61400000002", vessels=[glider, vessel_a], role="query", name="Both")
+    response = glider_boat.get(NUMBERS)
+    assert response.status_code == 200
+    assert response.json() == {
+        "numbers": [
+            {"number": "+61400000002", "name": "Both", "role": "query", "active": True,
+             "expires_at": None},
+            {"number": "+61412345678", "name": "Ana", "role": "control", "active": True,
+             "expires_at": None},
+        ]
+    }  # fmt: skip
+
+
+def test_numbers_answer_304_until_the_list_changes(glider, glider_boat):
+    authorised_number_authorise(number="+61412345678", vessels=[glider], role="query", name="A")
+    etag = glider_boat.get(NUMBERS)["ETag"]
+    again = glider_boat.get(NUMBERS, HTTP_IF_NONE_MATCH=etag)
+    assert again.status_code == 304 and again.content == b""
+    authorised_number_deauthorise(number="+61412345678")
+    changed = glider_boat.get(NUMBERS, HTTP_IF_NONE_MATCH=etag)
+    assert changed.status_code == 200
+    assert changed.json()["numbers"][0]["active"] is False
+    assert changed["ETag"] != etag
+
+
+def test_another_boat_never_sees_the_vessels_numbers(glider, boat_a):
+    authorised_number_authorise(number="+61412345678", vessels=[glider], role="control", name="A")
+    assert boat_a.get(NUMBERS).json() == {"numbers": []}
+
+
+def test_the_boat_endpoints_need_a_key(anonymous, revoked_boat):
+    for client in (anonymous, revoked_boat):
+        assert client.get(NUMBERS).status_code == 401
+        assert client.post(SMS, [], format="json").status_code == 401
+
+
+def test_an_upload_is_stored_once_and_a_resend_counts_as_duplicates(glider, glider_boat):
+    reply = entry(
+        "2", direction="out", number="+61412345678", text="#FHEAD 230 OK", outcome="",
+        status="sent", sent_at=AT.isoformat(), reply_to="1", received_at=None,
+    )  # fmt: skip
+    batch = {"messages": [entry("1"), reply]}
+    assert glider_boat.post(SMS, batch, format="json").json() == {
+        "accepted": 2,
+        "duplicates": 0,
+        "rejected": [],
+    }
+    again = glider_boat.post(SMS, batch, format="json").json()
+    assert again == {"accepted": 0, "duplicates": 2, "rejected": []}
+    incoming = SmsMessage.objects.get(vessel=glider, origin_id="1")
+    assert incoming.created_at == AT and incoming.number_e164 == "+61412345678"
+    outgoing = SmsMessage.objects.get(vessel=glider, origin_id="2")
+    assert outgoing.reply_to == incoming and outgoing.status == "sent"
+
+
+def test_one_bad_entry_never_loses_the_good_ones(glider, glider_boat):
+    bad_status = entry("b", status="sent")  # an incoming SMS has no send status
+    answer = glider_boat.post(SMS, [entry("a"), bad_status, "nonsense", entry("c")], format="json")
+    body = answer.json()
+    assert body["accepted"] == 2 and body["duplicates"] == 0
+    assert [r["index"] for r in body["rejected"]] == [1, 2]
+    assert "status" in body["rejected"][0]["errors"]
+    assert set(SmsMessage.objects.values_list("origin_id", flat=True)) == {"a", "c"}
+
+
+def test_an_upload_links_only_the_vessels_own_commands(glider, vessel_a, glider_boat):
+    own = command_enqueue(vessel=glider, kind="fhead", params={"bearing": 230})
+    other = command_enqueue(vessel=vessel_a, kind="hold", params={})
+    glider_boat.post(SMS, [entry("1", commands=[str(own.uid), str(other.uid)])], format="json")
+    stored = SmsMessage.objects.get(origin_id="1")
+    assert list(stored.commands.all()) == [own]
+
+
+def test_the_same_origin_id_from_two_vessels_is_two_messages(glider, glider_boat, boat_a):
+    glider_boat.post(SMS, [entry("1")], format="json")
+    assert boat_a.post(SMS, [entry("1")], format="json").json()["accepted"] == 1
+    assert SmsMessage.objects.filter(origin_id="1").count() == 2
+
+
+def test_an_upload_that_is_not_a_list_is_a_400(glider_boat):
+    response = glider_boat.post(SMS, {"text": "hello"}, format="json")
+    assert response.status_code == 400
+    assert response.json()["error"]
+
+
+@pytest.mark.parametrize(
+    "odd",
+    [
+        {"text": "nul\x00here"},
+        {"text": "lone \ud800 surrogate"},
+        {"id": "x" * 65},
+        {"created_at": "yesterday"},
+        {"commands": "not-a-list"},
+        {"commands": ["not-a-uid"]},
+        {"parsed": [1, 2]},
+        {"direction": "sideways"},
+        {"number": ""},
+        {"outcome": "stranger", "direction": "out", "status": "sent"},
+    ],
+)
+def test_an_odd_entry_is_rejected_by_index_and_never_a_500(glider_boat, odd):
+    # Encoded here with ASCII escapes: a lone surrogate is valid JSON, not valid UTF-8.
+    body = json.dumps([entry("ok"), entry("odd", **odd)])
+    answer = glider_boat.post(SMS, body, content_type="application/json")
+    assert answer.status_code == 200
+    body = answer.json()
+    assert body["accepted"] + len(body["rejected"]) == 2
+    assert body["accepted"] >= 1

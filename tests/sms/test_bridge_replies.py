@@ -1,0 +1,150 @@
+"""Replies that wait for the C&C's answer (issue 11 §3): the pure composition (sms.replies) and
+the held replies in the SMS service (sms_handle_incoming with a reply window, sms_replies_due)."""
+
+from __future__ import annotations
+
+import datetime as dt
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from commands.models import Command
+from commands.services import command_complete, command_mark_sent
+from sms import replies
+from sms.bridge.commands import ACK_DETAIL, NAK_DETAIL, NO_ANSWER, REFUSED_DETAIL
+from sms.gsm7 import SMS_SEPTETS, septets
+from sms.models import Direction, SendStatus, SmsMessage
+from sms.services import authorised_number_authorise, sms_handle_incoming, sms_replies_due
+from vessels.models import Vessel
+
+PHONE = "+61400000001"
+T0 = dt.datetime(2026, 11, 25, 6, 0, tzinfo=dt.UTC)
+
+
+# -- pure ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("status", "detail", "outcome"),
+    [
+        ("done", ACK_DETAIL, "OK"),
+        ("failed", NAK_DETAIL.format(code=2, meaning="invalid data"), "FAILED invalid data"),
+        ("failed", NO_ANSWER, "FAILED no answer from the C&C box"),
+        ("failed", REFUSED_DETAIL.format(reason="not enabled"), "FAILED not enabled"),
+        ("failed", "", "FAILED"),
+        ("superseded", "", "SUPERSEDED"),
+        ("queued", "", None),
+        ("sent", "", None),
+        ("acknowledged", "", None),
+    ],
+)
+def test_a_command_outcome_reads_as_the_reply_says_it(
+    status: str, detail: str, outcome: str | None
+) -> None:
+    assert replies.command_outcome(status, detail) == outcome
+
+
+def test_settle_replaces_each_command_outcome_and_says_whether_all_ended() -> None:
+    records = [
+        {"echo": "#FHEAD 230", "outcome": "QUEUED", "command": 1},
+        {"echo": "#LIGHT", "outcome": "ON"},
+        {"echo": "#LIGHT OFF", "outcome": "QUEUED", "command": 2},
+    ]
+    text, ended = replies.settle(records, {1: "OK", 2: None})
+    assert (text, ended) == ("#FHEAD 230 OK; #LIGHT ON; #LIGHT OFF QUEUED", False)
+    text, ended = replies.settle(records, {1: "OK", 2: "FAILED invalid data"})
+    assert (text, ended) == ("#FHEAD 230 OK; #LIGHT ON; #LIGHT OFF FAILED invalid data", True)
+
+
+@given(st.lists(st.text(max_size=200), min_size=1, max_size=12), st.text(max_size=300))
+def test_a_settled_reply_always_fits_one_sms(echoes: list[str], reason: str) -> None:
+    records = [{"echo": e, "outcome": "QUEUED", "command": i} for i, e in enumerate(echoes)]
+    text, ended = replies.settle(records, {i: f"FAILED {reason}" for i in range(len(echoes))})
+    assert ended and septets(text) <= SMS_SEPTETS
+
+
+def test_readings_are_spelled_short() -> None:
+    readings = {"humidity_temp_c": 21.34, "humidity_pct": 45.2, "pressure_kpa": 101.3,
+                "leak1": 0, "leak2": 1, "other": 3}  # fmt: skip
+    assert replies.readings_text(readings) == "21.3C 45%RH 101.3kPa leak 0/1"
+    assert replies.readings_text({}) == ""
+
+
+# -- the service --------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def phone(glider: Vessel) -> str:
+    authorised_number_authorise(number=PHONE, vessels=[glider], role="control", name="Skipper")
+    return PHONE
+
+
+def text_in(glider: Vessel, text: str, window: float = 30.0, at: dt.datetime = T0) -> SmsMessage:
+    result = sms_handle_incoming(
+        vessel=glider, number=PHONE, text=text, received_at=at, reply_window_s=window
+    )
+    return result.replies[0]
+
+
+def outgoing(glider: Vessel) -> list[tuple[str, str]]:
+    return [
+        (m.status, m.text)
+        for m in SmsMessage.objects.filter(vessel=glider, direction=Direction.OUT).order_by("pk")
+    ]
+
+
+def end(command: Command, *, ok: bool, detail: str = "") -> None:
+    command_mark_sent(command=command, actor="test", now=T0)
+    status = "done" if ok else "failed"
+    command_complete(
+        command=command, status=status, detail=detail or ACK_DETAIL, actor="test", now=T0
+    )
+
+
+def test_a_command_reply_waits_and_says_ok_once_the_command_is_done(
+    glider: Vessel, phone: str
+) -> None:
+    reply = text_in(glider, "#FHEAD 230")
+    assert (reply.status, reply.due_at) == (SendStatus.WAITING, T0 + dt.timedelta(seconds=30))
+    assert sms_replies_due(vessel=glider, now=T0) == 0  # still on its way
+    end(Command.objects.get(), ok=True)
+    assert sms_replies_due(vessel=glider, now=T0) == 1
+    assert sms_replies_due(vessel=glider, now=T0) == 0  # released once
+    assert outgoing(glider) == [("pending", "#FHEAD 230 OK")]
+
+
+def test_a_nak_reply_names_the_reason(glider: Vessel, phone: str) -> None:
+    text_in(glider, "#FHEAD 230")
+    end(Command.objects.get(), ok=False, detail=NAK_DETAIL.format(code=2, meaning="invalid data"))
+    sms_replies_due(vessel=glider, now=T0)
+    assert outgoing(glider) == [("pending", "#FHEAD 230 FAILED invalid data")]
+
+
+def test_past_the_window_queued_goes_out_then_one_more_sms_when_it_ends(
+    glider: Vessel, phone: str
+) -> None:
+    text_in(glider, "#STATUS; #FHEAD 230")
+    assert sms_replies_due(vessel=glider, now=T0 + dt.timedelta(seconds=31)) == 1
+    (status, text), (later_status, _) = outgoing(glider)
+    assert status == "pending" and text.endswith("#FHEAD 230 QUEUED")
+    assert later_status == "waiting"
+    assert sms_replies_due(vessel=glider, now=T0 + dt.timedelta(hours=1)) == 0  # no window
+    end(Command.objects.get(), ok=True)
+    assert sms_replies_due(vessel=glider, now=T0 + dt.timedelta(hours=1)) == 1
+    assert outgoing(glider)[1] == ("pending", "#FHEAD 230 OK")  # the commands only
+    follow_up = SmsMessage.objects.filter(direction=Direction.OUT).order_by("pk").last()
+    assert list(follow_up.commands.all()) == [Command.objects.get()]
+    assert follow_up.reply_to == SmsMessage.objects.get(direction=Direction.IN)
+
+
+def test_queries_and_errors_are_answered_at_once(glider: Vessel, phone: str) -> None:
+    assert text_in(glider, "#FHEAD").status == SendStatus.PENDING
+    assert text_in(glider, "#FHEAD 999", at=T0 + dt.timedelta(seconds=1)).status == "pending"
+
+
+def test_without_a_window_the_reply_says_queued_at_once(glider: Vessel, phone: str) -> None:
+    assert (text_in(glider, "#FHEAD 230", window=0).status, outgoing(glider)) == (
+        SendStatus.PENDING,
+        [("pending", "#FHEAD 230 QUEUED")],
+    )

@@ -1,0 +1,167 @@
+// Shoreside map basics, shared by every map page (fleet map, track view, mission planner):
+// the tile layer from the page's map-config (none when MAP_TILES_URL is empty), a lat/lon
+// graticule and the coordinates under the cursor (so a map with no tiles at sea is still a
+// chart), great-circle distance and bearing, and small formatters. Plain Leaflet, no build step.
+(function () {
+  "use strict";
+  var S = (window.Shoreside = window.Shoreside || {});
+  // Mean Earth radius, IUGG; the same sphere as vessels/geo.py (the browser test compares them).
+  var EARTH_RADIUS_M = 6371000;
+  var GRID_STEPS = [30, 10, 5, 2, 1, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005];
+  var GRID_MAX_LINES = 8;
+  var LABEL_CLEAR_PX = 18;
+  var ZOOM_BUTTONS_PX = 90; // Leaflet's zoom control, top left
+
+  function rad(d) { return (d * Math.PI) / 180; }
+
+  S.geo = {
+    // Haversine distance in metres, as vessels.geo.distance_m.
+    distance: function (lat1, lon1, lat2, lon2) {
+      var p1 = rad(lat1), p2 = rad(lat2), dp = p2 - p1, dl = rad(lon2 - lon1);
+      var a = Math.pow(Math.sin(dp / 2), 2) + Math.cos(p1) * Math.cos(p2) * Math.pow(Math.sin(dl / 2), 2);
+      return 2 * EARTH_RADIUS_M * Math.asin(Math.sqrt(Math.min(1, a)));
+    },
+    // Initial great-circle bearing, degrees true in [0, 360), as vessels.geo.bearing_deg.
+    bearing: function (lat1, lon1, lat2, lon2) {
+      var p1 = rad(lat1), p2 = rad(lat2), dl = rad(lon2 - lon1);
+      var y = Math.sin(dl) * Math.cos(p2);
+      var x = Math.cos(p1) * Math.sin(p2) - Math.sin(p1) * Math.cos(p2) * Math.cos(dl);
+      return (((Math.atan2(y, x) * 180) / Math.PI) % 360 + 360) % 360;
+    },
+  };
+
+  S.json = function (id) {
+    var node = document.getElementById(id);
+    return node ? JSON.parse(node.textContent) : {};
+  };
+
+  S.el = function (tag, attrs, children) {
+    var node = document.createElement(tag);
+    Object.keys(attrs || {}).forEach(function (k) {
+      if (k === "text") { node.textContent = attrs[k]; }
+      else if (k === "class") { node.className = attrs[k]; }
+      else if (k.slice(0, 2) === "on") { node.addEventListener(k.slice(2), attrs[k]); }
+      else { node.setAttribute(k, attrs[k]); }
+    });
+    (children || []).forEach(function (c) {
+      if (c !== null && c !== undefined) { node.appendChild(typeof c === "string" ? document.createTextNode(c) : c); }
+    });
+    return node;
+  };
+
+  S.fmtDistance = function (m) {
+    return m < 1000 ? Math.round(m) + " m" : (m / 1000).toFixed(m < 10000 ? 2 : 1) + " km";
+  };
+  S.fmtDuration = function (s) {
+    if (s === null || s === undefined || !isFinite(s)) { return "–"; }
+    s = Math.max(0, Math.round(s));
+    if (s < 60) { return s + " s"; }
+    if (s < 3600) { return Math.floor(s / 60) + " min" + (s < 600 && s % 60 ? " " + (s % 60) + " s" : ""); }
+    if (s < 86400) { return Math.floor(s / 3600) + " h " + Math.floor((s % 3600) / 60) + " min"; }
+    return Math.floor(s / 86400) + " d " + Math.floor((s % 86400) / 3600) + " h";
+  };
+  S.fmtTime = function (value) {
+    var d = typeof value === "number" ? new Date(value * 1000) : new Date(value);
+    return isNaN(d) ? "–" : d.toISOString().slice(0, 19).replace("T", " ") + "Z";
+  };
+  S.fmtLatLon = function (lat, lon) { return lat.toFixed(5) + ", " + lon.toFixed(5); };
+  // Degrees and decimal minutes, as on a chart and a plotter.
+  S.fmtDDM = function (lat, lon) {
+    function part(v, pos, neg) {
+      var a = Math.abs(v), d = Math.floor(a), m = (a - d) * 60;
+      return d + "°" + m.toFixed(3) + "′" + (v >= 0 ? pos : neg);
+    }
+    return part(lat, "N", "S") + " " + part(lon, "E", "W");
+  };
+  S.fmtValue = function (v, unit) {
+    if (v === null || v === undefined) { return "–"; }
+    var text = String(v);
+    if (typeof v === "number" && !Number.isInteger(v)) { text = Math.abs(v) >= 100 ? v.toFixed(1) : v.toFixed(2); }
+    return unit ? text + " " + unit : text;
+  };
+
+  S.getJSON = function (url, headers) {
+    return fetch(url, { credentials: "same-origin", headers: Object.assign({ Accept: "application/json" }, headers || {}) });
+  };
+
+  // A lat/lon grid at a round step for the zoom, with its values on the map's left and bottom.
+  var Graticule = L.LayerGroup.extend({
+    onAdd: function (map) {
+      L.LayerGroup.prototype.onAdd.call(this, map);
+      map.on("moveend zoomend resize", this._draw, this);
+      this._draw();
+    },
+    onRemove: function (map) {
+      map.off("moveend zoomend resize", this._draw, this);
+      L.LayerGroup.prototype.onRemove.call(this, map);
+    },
+    _draw: function () {
+      var map = this._map;
+      if (!map) { return; }
+      this.clearLayers();
+      var b = map.getBounds(), south = Math.max(b.getSouth(), -85), north = Math.min(b.getNorth(), 85);
+      var west = b.getWest(), east = b.getEast();
+      var span = Math.max(north - south, east - west);
+      var step = GRID_STEPS[GRID_STEPS.length - 1];
+      for (var i = 0; i < GRID_STEPS.length; i++) {
+        if (span / GRID_STEPS[i] >= 2) { step = GRID_STEPS[i]; break; }
+      }
+      if (span / step > GRID_MAX_LINES * 2) { step *= 2; }
+      var digits = Math.max(0, Math.ceil(-Math.log10(step)));
+      var style = { color: "#5b7389", weight: 1, opacity: 0.45, interactive: false, dashArray: "2 4" };
+      var lat0 = Math.ceil(south / step) * step, lon0 = Math.ceil(west / step) * step;
+      // Latitudes along the left edge (below the zoom buttons), longitudes along the top: the
+      // scale bar, attribution and cursor position sit along the bottom.
+      var labelLon = west, labelLat = north;
+      var size = map.getSize();
+      for (var lat = lat0; lat <= north; lat += step) {
+        this.addLayer(L.polyline([[lat, west], [lat, east]], style));
+        var y = map.latLngToContainerPoint([lat, west]).y;
+        // Not under the zoom buttons, nor the scale bar along the bottom.
+        if (y > ZOOM_BUTTONS_PX && y < size.y - 2 * LABEL_CLEAR_PX) {
+          this.addLayer(this._label([lat, labelLon], lat.toFixed(digits) + "°", "lat"));
+        }
+      }
+      for (var lon = lon0; lon <= east; lon += step) {
+        this.addLayer(L.polyline([[south, lon], [north, lon]], style));
+        var x = map.latLngToContainerPoint([north, lon]).x;
+        // Not under the zoom buttons, and the whole label inside the map.
+        if (x > 3 * LABEL_CLEAR_PX && x < size.x - 4 * LABEL_CLEAR_PX) {
+          this.addLayer(this._label([labelLat, lon], lon.toFixed(digits) + "°", "lon"));
+        }
+      }
+    },
+    _label: function (latlng, text, axis) {
+      return L.marker(latlng, {
+        interactive: false, keyboard: false,
+        icon: L.divIcon({ className: "graticule-label graticule-" + axis, html: "<span>" + text + "</span>", iconSize: [0, 0] }),
+      });
+    },
+  });
+
+  var CursorPosition = L.Control.extend({
+    options: { position: "bottomright" },
+    onAdd: function (map) {
+      var box = L.DomUtil.create("div", "leaflet-control cursor-position");
+      box.hidden = true; // until the pointer is over the map
+      map.on("mousemove", function (e) {
+        box.hidden = false;
+        box.textContent = S.fmtLatLon(e.latlng.lat, e.latlng.lng) + "  ·  " + S.fmtDDM(e.latlng.lat, e.latlng.lng);
+      });
+      return box;
+    },
+  });
+
+  // Tiles (if any), graticule and cursor position on a map made by django-leaflet's tag.
+  S.baseMap = function (map) {
+    var config = S.json("map-config");
+    if (config.tiles_url) {
+      L.tileLayer(config.tiles_url, { attribution: config.attribution, maxZoom: 19 }).addTo(map);
+    } else {
+      L.DomUtil.addClass(map.getContainer(), "no-tiles");
+    }
+    new Graticule().addTo(map);
+    new CursorPosition().addTo(map);
+    return config;
+  };
+})();
