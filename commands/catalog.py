@@ -6,6 +6,7 @@ through :func:`validate` and adapt :class:`CatalogError` into their own error ty
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -72,17 +73,17 @@ class Param:
     default: Any = None
 
     def clean(self, value: Any) -> Any:
-        cleaner: Callable[[Any], Any] = getattr(self, f"_clean_{self.kind}")
-        return cleaner(value)
+        return _CLEANERS[self.kind](self, value)
+
+    @functools.cached_property
+    def _by_upper(self) -> dict[str, str]:
+        """Each choice by its upper-case spelling (computed once: SMS parsing is hot)."""
+        return {c.upper(): c for c in self.choices}
 
     def _range(self, number: float) -> None:
-        if self.minimum is not None and number < self.minimum:
-            raise CatalogError(
-                f"{self.name} must be between {_fmt(self.minimum)} and {_fmt(self.maximum)}"
-                f" (got {_fmt(number)})",
-                field=self.name,
-            )
-        if self.maximum is not None and number > self.maximum:
+        if (self.minimum is not None and number < self.minimum) or (
+            self.maximum is not None and number > self.maximum
+        ):
             raise CatalogError(
                 f"{self.name} must be between {_fmt(self.minimum)} and {_fmt(self.maximum)}"
                 f" (got {_fmt(number)})",
@@ -90,6 +91,9 @@ class Param:
             )
 
     def _clean_float(self, value: Any) -> float:
+        if type(value) is float and math.isfinite(value):  # the usual case, checked cheaply
+            self._range(value)
+            return value
         if not _is_number(value) or not _is_finite(value):
             raise CatalogError(f"{self.name} must be a number", field=self.name)
         number = float(value)
@@ -97,6 +101,9 @@ class Param:
         return number
 
     def _clean_int(self, value: Any) -> int:
+        if type(value) is int:  # the usual case (bool is not exactly int), checked cheaply
+            self._range(value)
+            return value
         if isinstance(value, float) and value.is_integer():
             value = int(value)
         if not isinstance(value, int) or isinstance(value, bool):
@@ -105,12 +112,12 @@ class Param:
         return value
 
     def _clean_choice(self, value: Any) -> str:
-        text = value.strip().upper() if isinstance(value, str) else None
-        if text not in {c.upper() for c in self.choices}:
+        choice = self._by_upper.get(value.strip().upper()) if isinstance(value, str) else None
+        if choice is None:
             raise CatalogError(
                 f"{self.name} must be one of {', '.join(self.choices)}", field=self.name
             )
-        return next(c for c in self.choices if c.upper() == text)
+        return choice
 
     def _clean_bool(self, value: Any) -> bool:
         if not isinstance(value, bool):
@@ -133,6 +140,16 @@ class Param:
                 field=self.name,
             )
         return [_clean_mission_item(i, item) for i, item in enumerate(value)]
+
+
+_CLEANERS: dict[str, Callable[[Param, Any], Any]] = {
+    "float": Param._clean_float,
+    "int": Param._clean_int,
+    "choice": Param._clean_choice,
+    "bool": Param._clean_bool,
+    "indices": Param._clean_indices,
+    "items": Param._clean_items,
+}
 
 
 def _fmt(number: float | None) -> str:
@@ -169,6 +186,7 @@ SPEED_MPS = Param(
     default=None,
 )
 MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M, SPEED_MPS)
+_MISSION_ITEM_NAMES = frozenset(p.name for p in MISSION_ITEM_PARAMS)
 # How a mission ends: the boat stops at the last item, starts again from the first, or returns
 # home (ArduPilot: nothing, a DO_JUMP to item 1, a final NAV_RETURN_TO_LAUNCH).
 MISSION_ENDS = ENDS
@@ -193,27 +211,30 @@ def _clean_mission_item(index: int, item: Any) -> dict[str, Any]:
     if not isinstance(item, Mapping):
         raise CatalogError(f"items[{index}] must be an object with lat and lon", field="items")
     try:
-        return _clean_params(MISSION_ITEM_PARAMS, item)
+        return _clean_params(MISSION_ITEM_PARAMS, item, _MISSION_ITEM_NAMES)
     except CatalogError as exc:
         raise CatalogError(f"items[{index}]: {exc.message}", field="items") from None
 
 
-def _clean_params(specs: Sequence[Param], params: Mapping[str, Any]) -> dict[str, Any]:
-    known = {p.name for p in specs}
-    unknown = sorted(set(params) - known)
-    if unknown:
+def _clean_params(
+    specs: Sequence[Param], params: Mapping[str, Any], known: frozenset[str]
+) -> dict[str, Any]:
+    """``params`` checked against ``specs`` (whose names are ``known``), defaults filled in."""
+    if not params.keys() <= known:
+        unknown = sorted(set(params) - known)
         allowed = ", ".join(sorted(known)) or "none"
         raise CatalogError(
             f"unknown parameter {unknown[0]!r} (allowed: {allowed})", field=unknown[0]
         )
     clean: dict[str, Any] = {}
     for spec in specs:
-        if spec.name not in params or params[spec.name] is None:
+        value = params.get(spec.name)  # absent or None alike
+        if value is None:
             if spec.required:
                 raise CatalogError(f"{spec.name} is required ({spec.help})", field=spec.name)
             clean[spec.name] = spec.default
             continue
-        clean[spec.name] = spec.clean(params[spec.name])
+        clean[spec.name] = spec.clean(value)
     return clean
 
 
@@ -230,6 +251,10 @@ class CommandKind:
 
     def param(self, name: str) -> Param:
         return next(p for p in self.params if p.name == name)
+
+    @functools.cached_property
+    def param_names(self) -> frozenset[str]:
+        return frozenset(p.name for p in self.params)
 
 
 def _wg_index(name: str, help_: str) -> Param:
@@ -391,9 +416,10 @@ def validate(kind: str, params: Any, *, vessel_kind: str | None = None) -> Valid
         )
     if params is None:
         params = {}
-    if not isinstance(params, Mapping):
+    # dict first: the Mapping ABC check alone costs as much as cleaning a parameter.
+    if not isinstance(params, dict) and not isinstance(params, Mapping):
         raise CatalogError("params must be an object", field="params")
-    clean = _clean_params(spec.params, params)
+    clean = _clean_params(spec.params, params, spec.param_names)
     if spec.name == "mission":
         clean = _mission_end(clean)
         _mission_fits(clean)
@@ -427,7 +453,7 @@ def _mission_fits(params: Mapping[str, Any]) -> None:
 
 def split_text(text: str) -> tuple[str, list[str]]:
     """One text command's word (upper case, without ``#``) and its values, split on spaces."""
-    tokens = text.strip().split()
+    tokens = text.split()  # split() drops the surrounding whitespace strip() would
     if not tokens or not tokens[0].startswith("#"):
         raise CatalogError("a command starts with # (for example #FHEAD 230)")
     return tokens[0][1:].upper(), tokens[1:]
@@ -453,19 +479,21 @@ def parse_text(text: str, *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:
 def parse_words(word: str, args: Sequence[str], *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:
     """The text form already split into its word and values (see :func:`split_text`)."""
     spec = sms_kind(word)
-    args = list(args)
     params: dict[str, Any] = {}
+    used = 0
     for param in spec.params:
         if param.kind == "indices":
-            params[param.name] = [_token_number(param, a) for a in args]
-            args = []
+            params[param.name] = [_token_number(param, a) for a in args[used:]]
+            used = len(args)
             break
-        if not args:
+        if used == len(args):
             raise CatalogError(f"#{word} needs {param.name} ({param.help})", field=param.name)
-        token = args.pop(0)
+        token = args[used]
+        used += 1
         params[param.name] = token if param.kind == "choice" else _token_number(param, token)
-    if args:
-        raise CatalogError(f"#{word} takes {len(spec.params)} value(s); extra: {' '.join(args)}")
+    if used < len(args):
+        extra = " ".join(args[used:])
+        raise CatalogError(f"#{word} takes {len(spec.params)} value(s); extra: {extra}")
     return validate(spec.name, params, vessel_kind=vessel_kind)
 
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 import datetime as dt
 import re
 import uuid
+from collections.abc import Sequence
 from typing import Any
 
 from django.conf import settings
 from django.db import connection, transaction
+from django.db.models import F
 from django.utils import timezone
 
 from commands import catalog
@@ -153,7 +155,6 @@ def mission_send(
     )
 
 
-@transaction.atomic
 def command_enqueue(
     *,
     vessel: Vessel,
@@ -170,13 +171,16 @@ def command_enqueue(
     A new navigation command supersedes the vessel's older queued navigation commands: only
     the newest navigation order may reach the boat. ``uid`` keeps a command's identity from
     elsewhere (a glider queues its shore's commands under the shore's uid); a new one otherwise.
+
+    Every refusal is raised before the transaction starts, so a caller inside its own
+    transaction (the SMS handling) can answer it and go on; the writes then need no savepoint
+    of their own: the command, one conditional UPDATE for the superseded ones, one INSERT for
+    all the events and one commands_version bump (3-4 statements).
     """
     now = now or timezone.now()
     valid, expires_at = command_validate(
         vessel=vessel, kind=kind, params=params, expires_at=expires_at, now=now
     )
-    if valid.navigation:
-        _serialise_navigation_enqueues(vessel.pk)
     command = Command(
         vessel=vessel,
         kind=valid.kind,
@@ -188,18 +192,20 @@ def command_enqueue(
     )
     if uid is not None:
         command.uid = uid
-    command.full_clean()
-    command.save()
-    CommandEvent.objects.create(
-        command=command,
-        at=now,
-        to_status=Status.QUEUED,
-        actor=created_by[:150],
-        detail=f"via {source}",
+    # The field checks without the foreign key's query (the vessel is the loaded row); the uid
+    # is checked for uniqueness only when it comes from elsewhere (a fresh uuid4 cannot clash,
+    # and the unique index still guards it).
+    command.full_clean(
+        exclude=["vessel"], validate_unique=uid is not None, validate_constraints=False
     )
-    if valid.navigation:
-        _supersede_older_navigation(command, now)
-    vessel_bump_commands_version(vessel_id=vessel.pk)
+    with transaction.atomic(savepoint=False):
+        if valid.navigation:
+            _serialise_navigation_enqueues(vessel.pk)
+        command.save()
+        if valid.navigation:
+            _supersede_older_navigation(command, now)
+        else:
+            _record_enqueued(command, now)
     return command
 
 
@@ -220,21 +226,71 @@ def _serialise_navigation_enqueues(vessel_id: int) -> None:
             )
 
 
-def _supersede_older_navigation(command: Command, now: dt.datetime) -> None:
-    nav_kinds = [k.name for k in catalog.KINDS.values() if k.navigation]
-    older = Command.objects.filter(
-        vessel_id=command.vessel_id,
-        status=Status.QUEUED,
-        kind__in=nav_kinds,
-    ).exclude(pk=command.pk)
-    for old in older:
-        _transition(
-            old,
-            Status.SUPERSEDED,
-            now=now,
+# The navigation kinds, for the supersede UPDATE.
+_NAVIGATION_KINDS = tuple(k.name for k in catalog.KINDS.values() if k.navigation)
+
+
+def _supersede_detail(command: Command) -> str:
+    return f"superseded by {command.kind} {command.uid}"
+
+
+def _record_enqueued(command: Command, now: dt.datetime, superseded: Sequence[int] = ()) -> None:
+    """The events of an enqueue (the new command queued, the ``superseded`` ones) in one
+    INSERT, and one commands_version bump per command that entered or left the boat's list
+    in one UPDATE: the poll's ETag changes either way (as vessel_bump_commands_version)."""
+    queued = CommandEvent(
+        command=command,
+        at=now,
+        to_status=Status.QUEUED,
+        actor=command.created_by,
+        detail=f"via {command.source}",
+    )
+    detail = _supersede_detail(command)
+    replaced = [
+        CommandEvent(
+            command_id=pk,
+            at=now,
+            from_status=Status.QUEUED.value,
+            to_status=Status.SUPERSEDED.value,
             actor="system",
-            detail=f"superseded by {command.kind} {command.uid}",
+            detail=detail,
         )
+        for pk in superseded
+    ]
+    CommandEvent.objects.bulk_create([queued, *replaced])
+    Vessel.objects.filter(pk=command.vessel_id).update(
+        commands_version=F("commands_version") + 1 + len(replaced)
+    )
+
+
+def _supersede_older_navigation(command: Command, now: dt.datetime) -> None:
+    """Mark the vessel's other queued navigation commands superseded, then record the enqueue.
+
+    One conditional UPDATE … RETURNING (PostgreSQL; SQLite >= 3.35) instead of a read and an
+    update per command: the WHERE re-checks ``queued`` row by row (on PostgreSQL after any
+    lock wait), so a command a poll sent or an operator cancelled meanwhile is left alone,
+    exactly as :func:`_transition` would, and only the rows it changed get an event.
+    """
+    check_transition(Status.QUEUED, Status.SUPERSEDED)
+    table = connection.ops.quote_name(Command._meta.db_table)
+    kinds = ", ".join(["%s"] * len(_NAVIGATION_KINDS))
+    with connection.cursor() as cursor:
+        cursor.execute(
+            f"UPDATE {table} SET status = %s, finished_at = %s, result_detail = %s "
+            f"WHERE vessel_id = %s AND status = %s AND kind IN ({kinds}) AND id <> %s "
+            "RETURNING id",
+            [
+                Status.SUPERSEDED.value,
+                connection.ops.adapt_datetimefield_value(now),
+                _supersede_detail(command),
+                command.vessel_id,
+                Status.QUEUED.value,
+                *_NAVIGATION_KINDS,
+                command.pk,
+            ],
+        )
+        superseded = sorted(row[0] for row in cursor.fetchall())
+    _record_enqueued(command, now, superseded)
 
 
 def command_expire_due(*, now: dt.datetime | None = None, vessel: Vessel | None = None) -> int:

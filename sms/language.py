@@ -175,7 +175,7 @@ def table_refusal(table: InnerCommandTable, kind: str, params: Mapping[str, Any]
     if not spec.usable:
         return NOT_ENABLED
     try:
-        table.encode(kind, params)
+        table.check_valid(kind, params)
     except CommandRefused as exc:
         return exc.reason
     return None
@@ -223,6 +223,7 @@ def _help_kind(spec: catalog.CommandKind, vessel_kind: str, table: InnerCommandT
 
 _COORDINATE_MARKS = re.compile("[°º]")
 _MINUTE_MARKS = re.compile("['′]")
+_ANY_MARK = re.compile("[°º'′]")
 _DECIMAL = re.compile(r"([+-]?)([0-9]+(?:\.[0-9]*)?|\.[0-9]+)([NSEWnsew]?)")
 _DEGREES = re.compile(r"([+-]?)([0-9]{1,3})")
 _MINUTES = re.compile(r"([0-9]{1,2}(?:\.[0-9]*)?)([NSEWnsew]?)")
@@ -244,7 +245,9 @@ def _coordinates(spec: catalog.CommandKind, args: Sequence[str]) -> list[str]:
     if len(params) < 2 or params[-2] is not catalog.LAT or params[-1] is not catalog.LON:
         return list(args)
     lead = len(params) - 2
-    tail = _MINUTE_MARKS.sub("", _COORDINATE_MARKS.sub(" ", " ".join(args[lead:])))
+    tail = " ".join(args[lead:])
+    if _ANY_MARK.search(tail):  # rare: most texts give no ° or '
+        tail = _MINUTE_MARKS.sub("", _COORDINATE_MARKS.sub(" ", tail))
     values: list[str] = []
     for token in tail.split():
         if values and token.upper() in _LETTERS:  # "02.28' S": the letter belongs to the value

@@ -34,6 +34,7 @@ SOURCED = "sourced"
 PROVISIONAL = "provisional"
 UNKNOWN = "unknown"  # a choice whose command value nobody has published
 _FIELD_FORMATS = {"u8": "<B", "i8": "<b", "u16": "<H", "i16": "<h"}
+_FIELD_RANGES = {"u8": (0, 0xFF), "i8": (-0x80, 0x7F), "u16": (0, 0xFFFF), "i16": (-0x8000, 0x7FFF)}
 # Table parameter type → the catalog parameter kind it carries.
 _PARAM_TYPES = {
     "int": "int",
@@ -125,6 +126,13 @@ class InnerCommandTable:
     def __init__(self, settings: InnerSettings, commands: Mapping[str, CommandSpec]) -> None:
         self.settings = settings
         self.commands = dict(commands)
+        # Usable entries that encode every value the catalog accepts (decided once, per entry
+        # object: an entry replaced later is checked in full).
+        self._encodes_all_valid = {
+            word: spec
+            for word, spec in self.commands.items()
+            if spec.usable and _encodes_every_valid(spec)
+        }
 
     # -- loading ------------------------------------------------------------------------------
 
@@ -177,6 +185,37 @@ class InnerCommandTable:
         3. The command value is chosen (fixed, by a choice, or by the sign of a parameter).
         4. Every parameter is placed into the 5 parameter bytes or lat/lon (§11.1).
         """
+        key, spec, values, value, params, lat, lon = self._encode(word, args)
+        packet = CommandPacket(
+            value,
+            bytes(params),
+            lat,
+            lon,
+            self.settings.wgms_id,
+            self.settings.inner_size_includes_crc,
+            self.settings.inner_crc,
+        )
+        return InnerCommand(key, values, packet, spec.status == PROVISIONAL)
+
+    def check(self, word: str, args: Sequence[Any] | Mapping[str, Any] = ()) -> None:
+        """Raise CommandRefused exactly when :meth:`encode` would, building no packet (the
+        SMS parser asks this of every command it reads)."""
+        self._encode(word, args)
+
+    def check_valid(self, word: str, params: Mapping[str, Any]) -> None:
+        """:meth:`check` for params the command catalog has validated (``catalog.validate``).
+
+        An entry whose every parameter fits its field over the catalog's whole range (see
+        :func:`_encodes_every_valid`) cannot refuse such params, so only its usability is
+        looked at; any other is checked in full.
+        """
+        spec = self.commands.get(word.lower().lstrip("#"))
+        if spec is None or self._encodes_all_valid.get(spec.word) is not spec:
+            self._encode(word, params)
+
+    def _encode(
+        self, word: str, args: Sequence[Any] | Mapping[str, Any]
+    ) -> tuple[str, CommandSpec, dict[str, Any], int, bytearray, int, int]:
         key = word.lower().lstrip("#")
         spec = self.commands.get(key)
         if spec is None:
@@ -199,16 +238,7 @@ class InnerCommandTable:
                 lon = degrees_to_l2(values[p.name], limit=_limit(p))
         for f in spec.fields:
             _place(spec, f, values[f.source], params)
-        packet = CommandPacket(
-            value,
-            bytes(params),
-            lat,
-            lon,
-            self.settings.wgms_id,
-            self.settings.inner_size_includes_crc,
-            self.settings.inner_crc,
-        )
-        return InnerCommand(key, values, packet, spec.status == PROVISIONAL)
+        return key, spec, values, value, params, lat, lon
 
 
 def _load_entry(word: str, entry: Mapping[str, Any]) -> CommandSpec:
@@ -370,10 +400,40 @@ def _value_known(spec: CommandSpec) -> bool:
     return False
 
 
+def _encodes_every_valid(spec: CommandSpec) -> bool:
+    """True when :meth:`InnerCommandTable.encode` accepts every value the catalog accepts.
+
+    After the catalog's checks only the wire can refuse: a value outside its field's format
+    (a bearing of 359 in a u8), a list longer than its bytes (the catalog does not bound
+    lists), a command value nobody published. Integer ranges are intervals, so their ends
+    (and 0 for ``abs``) decide; choices are few, so each one does.
+    """
+    if not _value_known(spec) or any(p.type == "int_list" for p in spec.params):
+        return False
+    by_name = {p.name: p for p in spec.params}
+    for f in spec.fields:
+        p = by_name[f.source]
+        if f.type not in _FIELD_RANGES:
+            return False
+        if p.type == "choice":
+            values = list(p.choices.values())
+        elif p.type == "int" and p.min is not None and p.max is not None:
+            values = [p.min, p.max, *([0] if p.min < 0 < p.max else [])]
+        else:
+            return False
+        if any(v is None for v in values):
+            return False
+        low, high = _FIELD_RANGES[f.type]
+        if not all(low <= (abs(v) if f.abs else v) <= high for v in values):
+            return False
+    return True
+
+
 def _bind(spec: CommandSpec, args: Sequence[Any] | Mapping[str, Any]) -> dict[str, Any]:
     """Match arguments to parameters, converting text and checking ranges."""
     word = spec.word
-    if isinstance(args, Mapping):
+    # dict first: the ABC check alone costs as much as binding a parameter.
+    if isinstance(args, dict) or isinstance(args, Mapping):
         extra = set(args) - {p.name for p in spec.params}
         if extra:
             raise CommandRefused(word, f"unexpected parameters {sorted(extra)}")

@@ -5,9 +5,11 @@ from __future__ import annotations
 import struct
 import tomllib
 from importlib import resources
+from typing import Any
 
 import pytest
 
+from commands import catalog
 from sms.level2.bodies import QueuedReply
 from sms.level2.codec import CC_COMMAND, Address, Frame, MessageType
 from sms.level2.errors import CommandRefused, TableError
@@ -191,3 +193,64 @@ def test_parameters_can_be_given_by_name() -> None:
     assert table.encode("fhead", {"bearing": 230}).packet == table.parse("fhead 230").packet
     with pytest.raises(CommandRefused, match="unexpected parameters"):
         table.encode("fhead", {"bearing": 1, "speed": 2})
+
+
+# --- check_valid: the SMS parser's shortcut must refuse exactly what encode refuses ---------
+
+
+def _catalog_values(table: InnerCommandTable, word: str) -> list[dict[str, Any]]:
+    """Every value the catalog accepts for each int and choice parameter (the ranges are
+    small), each coordinate at its limits, one parameter varied at a time."""
+    kind = catalog.get_kind(word)
+    base: dict[str, Any] = {}
+    options: dict[str, list[Any]] = {}
+    for p in kind.params:
+        if p.kind == "int":
+            options[p.name] = list(range(int(p.minimum), int(p.maximum) + 1))
+        elif p.kind == "choice":
+            options[p.name] = list(p.choices)
+        elif p.kind == "float":
+            options[p.name] = [p.minimum, 0.0, p.maximum]
+        else:  # indices: one to six of them
+            options[p.name] = [[1] * n for n in range(1, 7)]
+        base[p.name] = options[p.name][0]
+    return [{**base, name: v} for name, values in options.items() for v in values]
+
+
+def _refusal(call: Any, word: str, params: dict[str, Any]) -> str | None:
+    try:
+        call(word, params)
+    except CommandRefused as exc:
+        return exc.reason
+    return None
+
+
+def test_check_valid_refuses_what_encode_refuses_for_every_catalog_valid_value() -> None:
+    data = tomllib.loads(
+        resources.files("sms.level2").joinpath("inner_commands.toml").read_text("utf-8")
+    )
+    for entry in data["commands"].values():
+        entry["enabled"] = True
+        for p in entry.get("params", []):
+            if p["type"] == "choice":
+                p["choices"] = {k: 0x2000 + i for i, k in enumerate(p["choices"])}
+        if not any(k in entry for k in ("value", "value_from", "value_by_sign")):
+            entry["value"] = 0x0100
+    # A field too narrow for the catalog's range: the shortcut must not be taken.
+    data["commands"]["fhead"]["fields"] = [{"at": 3, "type": "u8", "from": "bearing"}]
+    table = InnerCommandTable.from_dict(data)
+    assert "fhead" not in table._encodes_all_valid  # noqa: SLF001 - the shortcut itself
+    refused = 0
+    for word in table.commands:
+        for params in _catalog_values(table, word):
+            valid = catalog.validate(word, params, vessel_kind=catalog.WAVE_GLIDER)
+            expected = _refusal(table.encode, word, valid.params)
+            assert _refusal(table.check_valid, word, valid.params) == expected
+            refused += expected is not None
+    assert refused > 0  # the narrow field and the long course lists were refused
+
+
+def test_the_shipped_usable_entries_skip_the_encoding_for_catalog_valid_values() -> None:
+    table = InnerCommandTable.load()
+    usable = {w for w, s in table.commands.items() if s.usable}
+    assert set(table._encodes_all_valid) == usable  # noqa: SLF001 - the shortcut itself
