@@ -87,6 +87,11 @@ def test_seed_demo_makes_a_usable_fleet(tmp_path: Path) -> None:
         vessel = Vessel.objects.get(slug=slug)
         assert vessel.last_fix is not None and Fix.objects.filter(vessel=vessel).count() > 30
     assert Command.objects.filter(status="done").exists()
+    # The demo phone may text the glider: sms_inject answers it, as the seed's output says.
+    assert user.has_perm("sms.view_smsmessage") and "sms_inject --vessel glider" in out
+    reply, _ = run_command("sms_inject", "--vessel", "glider", "--from", "+61400000001",
+                           "--text", "#STATUS")  # fmt: skip
+    assert reply.startswith("#STATUS")
     # Running it again keeps the fleet and its history and issues fresh keys.
     run_command("seed_demo", "--password", "demo-pw-2", "--keys-file", str(keys_file))
     assert Vessel.objects.count() == 3

@@ -18,6 +18,7 @@ from commands.models import Source
 from commands.services import command_ack, command_claim_open, command_enqueue
 from fleet.demo_track import SimBoat, patrol_route
 from fleet.files import write_private
+from sms.services import authorised_number_authorise
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from vessels.models import Mission, Vessel
@@ -43,7 +44,11 @@ OPERATOR_PERMS = {
     ],
     "telemetry": ["view_fix", "view_sensorchannel", "add_sensorchannel", "change_sensorchannel"],
     "commands": ["view_command", "add_command", "change_command", "view_commandevent"],
-}
+    "sms": ["view_authorisednumber", "add_authorisednumber", "change_authorisednumber",
+            "view_smsmessage"],
+}  # fmt: skip
+# A field user's phone that may command the demo glider (README: SMS control, sms_inject).
+DEMO_NUMBER = "+61400000001"
 DEMO_VESSELS = [
     # slug, name, kind, start (lat, lon), telemetry period
     ("spab", "SPAB", "mavlink", (-31.9790, 115.8170), 10),  # Matilda Bay, Swan River
@@ -86,6 +91,12 @@ class Command(BaseCommand):
                 self.history(vessel, start, period)
             keys[slug] = vessel_key_issue(vessel=vessel, label="demo", created_by="seed_demo")[1]
         self.demo_commands(user)
+        authorised_number_authorise(
+            number=DEMO_NUMBER,
+            vessels=[Vessel.objects.get(slug="glider")],
+            role="control",
+            name="Demo field phone",
+        )
         path = Path(opts["keys_file"])
         path.parent.mkdir(parents=True, exist_ok=True)
         path.unlink(missing_ok=True)  # recreated private; os.open keeps an old file's mode
@@ -93,6 +104,10 @@ class Command(BaseCommand):
         self.stdout.write(self.style.SUCCESS("Demo fleet ready."))
         self.stdout.write(f"  Log in at /admin/ as  user: {user.username}  password: {password}")
         self.stdout.write(f"  Vessel keys (new ones, shown once) are in {path}")
+        self.stdout.write(
+            f"  Text the glider: manage.py sms_inject --vessel glider --from {DEMO_NUMBER}"
+            ' --text "#STATUS"'
+        )
 
     def operator(self, password: str) -> User:
         group, _ = Group.objects.get_or_create(name=OPERATOR_GROUP)
