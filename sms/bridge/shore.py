@@ -75,6 +75,7 @@ SMS_PATH = "/api/v1/boat/sms/"
 REPORT_PATH = "/api/v1/boat/commands/report/"
 # The shore takes at most this many commands per report (commands.api.boat).
 REPORT_MAX_BATCH = 200
+REPORT_DETAIL_MAX = 2000  # the longest result_detail the shore takes in a report
 # A report the shore refuses whole: malformed, or a shore without the endpoint (older).
 REPORT_SKIP_STATUSES = frozenset({400, 404, 405})
 # Report batches sent before an SMS upload; more backlog than that, and the SMS waits a round.
@@ -529,7 +530,7 @@ def command_report_wire(command: Command) -> dict[str, Any]:
         "sent_at": _iso(command.sent_at),
         "acknowledged_at": _iso(command.acknowledged_at),
         "finished_at": _iso(command.finished_at),
-        "result_detail": command.result_detail,
+        "result_detail": command.result_detail[:REPORT_DETAIL_MAX],
     }
 
 
