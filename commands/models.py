@@ -33,6 +33,9 @@ class Command(models.Model):
     acknowledged_at = models.DateTimeField(null=True, blank=True)
     finished_at = models.DateTimeField(null=True, blank=True)
     result_detail = models.TextField(blank=True)
+    # Created on the vessel itself (a glider's SMS or admin) and reported up by it: the shore
+    # only mirrors it, so never offers, supersedes or expires it (commands.services).
+    reported = models.BooleanField(default=False)
 
     class Meta:
         ordering = ["-created_at"]

@@ -327,7 +327,9 @@ def command_claim_open(
     """
     now = now or timezone.now()
     command_expire_due(now=now, vessel=vessel)
-    open_commands = Command.objects.filter(vessel=vessel, status__in=[s.value for s in OPEN])
+    open_commands = Command.objects.filter(
+        vessel=vessel, status__in=[s.value for s in OPEN], reported=False
+    )
     if kinds is not None:
         open_commands = open_commands.filter(kind__in=kinds)
     commands = list(open_commands.order_by("created_at", "pk"))
@@ -509,3 +511,144 @@ def command_note(
         actor=actor[:150],
         detail=_storable_text(detail),
     )
+
+
+# --- commands a vessel created itself and reports up (a glider's SMS commands) ---------------
+
+REPORTED_ACTOR = "vessel"
+# How far along a command is, to tell a report that moves it forward from an old or repeated
+# one (reports travel through a store-and-forward outbox, out of order after a restart).
+_REPORT_RANK = {Status.QUEUED: 0, Status.SENT: 1, Status.ACKNOWLEDGED: 2}
+_FINAL_RANK = 3
+
+
+def _reported_path(
+    current: Status, target: Status, *, sent: bool, acknowledged: bool
+) -> list[Status]:
+    """The statuses a reported command passes through from ``current`` to ``target``: through
+    sent (and acknowledged) when the vessel says it got that far, so each one has its event."""
+    path: list[Status] = []
+    goes_out = target in (Status.SENT, Status.ACKNOWLEDGED, Status.DONE, Status.FAILED) or sent
+    if current == Status.QUEUED and goes_out and target != Status.QUEUED:
+        path.append(Status.SENT)
+    wants_ack = target == Status.ACKNOWLEDGED or (
+        acknowledged and target in (Status.DONE, Status.FAILED)
+    )
+    if current in (Status.QUEUED, Status.SENT) and wants_ack:
+        path.append(Status.ACKNOWLEDGED)
+    if target != (path[-1] if path else current):
+        path.append(target)
+    return path
+
+
+def _advance_reported(
+    command: Command, path: list[Status], *, stamps: dict[str, Any], detail: str, now: dt.datetime
+) -> None:
+    """Move a reported command along ``path`` with the vessel's own times. Unlike
+    :func:`_transition` it never bumps commands_version: the boat poll never lists it."""
+    for target in path:
+        current = Status(command.status)
+        check_transition(current, target)
+        changes: dict[str, Any] = {"status": target.value}
+        stamp = _STAMP.get(target)
+        at = (stamps.get(stamp) if stamp else None) or now
+        if stamp:
+            changes[stamp] = at
+        if target in FINAL:
+            changes["result_detail"] = detail
+        won = Command.objects.filter(pk=command.pk, status=current.value).update(**changes)
+        if won != 1:
+            raise TransitionError(current, target)  # a racing report moved it; it re-sends
+        for name, value in changes.items():
+            setattr(command, name, value)
+        CommandEvent.objects.create(
+            command=command,
+            at=at,
+            from_status=current.value,
+            to_status=target.value,
+            actor=REPORTED_ACTOR,
+            detail=detail if target in FINAL else "reported by the vessel",
+        )
+
+
+def _report_rank(status: Status) -> int:
+    return _REPORT_RANK.get(status, _FINAL_RANK)
+
+
+@transaction.atomic
+def command_record_reported(
+    *,
+    vessel: Vessel,
+    uid: uuid.UUID,
+    kind: str,
+    params: Any,
+    status: str,
+    source: str = Source.SMS,
+    created_by: str = "",
+    created_at: dt.datetime | None = None,
+    sent_at: dt.datetime | None = None,
+    acknowledged_at: dt.datetime | None = None,
+    finished_at: dt.datetime | None = None,
+    result_detail: str = "",
+    now: dt.datetime | None = None,
+) -> tuple[Command, bool]:
+    """Mirror a command the vessel created itself (a glider's SMS command); (command, changed).
+
+    An unknown uid becomes a ``reported`` command of ``vessel``, checked by the catalog for
+    the vessel's kind, with an event per status it went through (actor "vessel"). A known
+    reported uid moves forward to ``status``; a repeated or older report changes nothing. The
+    shore's own commands are left alone (their acks carry their state): unchanged. Raises
+    CatalogError, CommandError (another vessel's uid) or TransitionError (an illegal move).
+    """
+    now = now or timezone.now()
+    try:
+        reported = Status(status)
+    except ValueError:
+        raise CommandError(f"unknown status {status!r}", field="status") from None
+    detail = _storable_text(result_detail)
+    stamps = {"sent_at": sent_at, "acknowledged_at": acknowledged_at, "finished_at": finished_at}
+    existing = Command.objects.select_for_update().filter(uid=uid).first()
+    if existing is not None:
+        if existing.vessel_id != vessel.pk:
+            raise CommandError("this uid belongs to another command", field="uid")
+        if not existing.reported:
+            return existing, False
+        current = Status(existing.status)
+        if _report_rank(reported) < _report_rank(current) or reported == current:
+            return existing, False
+        path = _reported_path(
+            current, reported, sent=sent_at is not None, acknowledged=acknowledged_at is not None
+        )
+        _advance_reported(existing, path, stamps=stamps, detail=detail, now=now)
+        return existing, True
+    valid = catalog.validate(kind, params, vessel_kind=vessel.kind)
+    created = created_at or now
+    command = Command(
+        uid=uid,
+        vessel=vessel,
+        kind=valid.kind,
+        params=valid.params,
+        source=source,
+        created_by=_storable_text(created_by, 150),
+        status=Status.QUEUED,
+        reported=True,
+    )
+    command.full_clean()
+    path = _reported_path(
+        Status.QUEUED, reported, sent=sent_at is not None, acknowledged=acknowledged_at is not None
+    )
+    for step_from, step_to in zip([Status.QUEUED, *path], path, strict=False):
+        check_transition(step_from, step_to)  # before writing: an illegal report leaves nothing
+    command.save()
+    # created_at is auto_now_add: the vessel's own time is written after the insert.
+    Command.objects.filter(pk=command.pk).update(created_at=created)
+    command.created_at = created
+    CommandEvent.objects.create(
+        command=command,
+        at=created,
+        to_status=Status.QUEUED,
+        actor=REPORTED_ACTOR,
+        detail=f"reported by the vessel (via {source})",
+    )
+    _advance_reported(command, path, stamps=stamps, detail=detail, now=now)
+    return command, True

@@ -1,4 +1,5 @@
-"""Commands out to boats, acks in (DESIGN §5): v1 poll and ack. Thin: services do the work.
+"""Commands out to boats, acks in (DESIGN §5): v1 poll and ack, and the report of commands a
+vessel created itself (a glider's SMS commands). Thin: services do the work.
 
 The wire shapes are a contract with boats in the field, so these are explicit APIViews that
 build their JSON by hand rather than generic serializers.
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from django.db import IntegrityError
 from django.http import HttpResponseNotModified
 from django.utils.http import parse_etags
 from drf_spectacular.types import OpenApiTypes
@@ -17,8 +19,10 @@ from rest_framework.exceptions import ParseError, ValidationError
 from rest_framework.request import Request
 from rest_framework.response import Response
 
-from commands.models import Command
-from commands.services import command_ack, command_claim_open
+from commands.errors import CommandError
+from commands.lifecycle import Status
+from commands.models import Command, Source
+from commands.services import command_ack, command_claim_open, command_record_reported
 from vessels.api.boat import BoatView
 from vessels.models import Vessel
 
@@ -118,3 +122,82 @@ class AckView(BoatView):
             vessel=self.vessel(request), uid=uid, status=data.get("status"), detail=detail
         )
         return Response({"uid": str(command.uid), "status": command.status}, status.HTTP_200_OK)
+
+
+# Commands per report: the glider sends its backlog in batches of this size or fewer.
+COMMAND_REPORT_MAX_BATCH = 200
+RESULT_DETAIL_MAX = 2000
+
+
+class ReportedCommandIn(serializers.Serializer):
+    """One command the vessel created itself, as it stands on the vessel now."""
+
+    uid = serializers.UUIDField()
+    kind = serializers.CharField(max_length=20)
+    params = serializers.DictField(required=False, default=dict)
+    source = serializers.ChoiceField(Source.choices, required=False, default=Source.SMS)
+    created_by = serializers.CharField(max_length=150, required=False, allow_blank=True)
+    created_at = serializers.DateTimeField(help_text="when the vessel created it")
+    # A plain string, checked by the service: a ChoiceField would give the OpenAPI schema a
+    # second "status" enum colliding with the operator API's.
+    status = serializers.CharField(
+        max_length=20, help_text="its status there: " + ", ".join(s.value for s in Status)
+    )
+    sent_at = serializers.DateTimeField(required=False, allow_null=True)
+    acknowledged_at = serializers.DateTimeField(required=False, allow_null=True)
+    finished_at = serializers.DateTimeField(required=False, allow_null=True)
+    result_detail = serializers.CharField(
+        max_length=RESULT_DETAIL_MAX, required=False, allow_blank=True, trim_whitespace=False
+    )
+
+
+def reports_from_body(data: Any) -> list[Any]:
+    """The entries of {"commands": [...]}; anything else is a 400 naming the problem."""
+    commands = data.get("commands") if isinstance(data, dict) else None
+    if not isinstance(commands, list):
+        raise ParseError('Expected a JSON object {"commands": [...]}.')
+    if len(commands) > COMMAND_REPORT_MAX_BATCH:
+        raise ParseError(f"At most {COMMAND_REPORT_MAX_BATCH} commands per report.")
+    return commands
+
+
+class CommandReportView(BoatView):
+    @extend_schema(
+        request=inline_serializer("CommandReport", {"commands": ReportedCommandIn(many=True)}),
+        responses={
+            200: inline_serializer(
+                "CommandReportResult",
+                {
+                    "accepted": serializers.IntegerField(),
+                    "duplicates": serializers.IntegerField(),
+                    "rejected": serializers.ListField(child=serializers.DictField()),
+                },
+            )
+        },
+        tags=["boat"],
+    )
+    def post(self, request: Request) -> Response:
+        """Mirror the commands the vessel created itself (a glider's SMS commands), each as
+        it stands there now. New or moved forward: accepted; repeated, older, or one of the
+        shore's own commands: a duplicate; bad entries are reported by index, the good kept."""
+        vessel = self.vessel(request)
+        accepted = duplicates = 0
+        rejected: list[dict[str, Any]] = []
+        for index, raw in enumerate(reports_from_body(request.data)):
+            entry = ReportedCommandIn(data=raw) if isinstance(raw, dict) else None
+            if entry is None or not entry.is_valid():
+                errors = entry.errors if entry is not None else {"entry": ["not an object"]}
+                rejected.append({"index": index, "errors": errors})
+                continue
+            try:
+                _command, changed = command_record_reported(vessel=vessel, **entry.validated_data)
+            except CommandError as exc:
+                rejected.append({"index": index, "errors": exc.as_dict()})
+                continue
+            except IntegrityError:
+                changed = False  # the same report racing itself: the other one stored it
+            if changed:
+                accepted += 1
+            else:
+                duplicates += 1
+        return Response({"accepted": accepted, "duplicates": duplicates, "rejected": rejected})

@@ -10,6 +10,7 @@ from commands.api.legacy import LegacyCommandsView
 
 urlpatterns = [
     path("boat/commands/", boat.CommandListView.as_view(), name="boat-commands"),
+    path("boat/commands/report/", boat.CommandReportView.as_view(), name="boat-commands-report"),
     path("boat/commands/<str:uid>/ack/", boat.AckView.as_view(), name="boat-ack"),
     path(
         "vessels/<slug:slug>/commands/",

@@ -16,8 +16,14 @@ through the boat API like any boat:
   and restarts. The outbox's command table remembers which shore uids are still running here;
 - the authorised numbers are fetched with an ETag and replace the local list for this vessel
   (``sms.services.authorised_numbers_replace``); while the shore is away the last list stays;
+- the commands created here (by SMS, or the glider's own admin) are reported up as they stand
+  (``POST boat/commands/report/``) whenever one of their events is past a third watermark (the
+  last local CommandEvent id reported), so the shore mirrors each status change; a re-send is
+  a duplicate there. Shore commands (``created_by`` == :data:`CREATED_BY`) are not reported:
+  their acks carry their state;
 - the SMS log goes up in id order behind a second watermark (an outgoing SMS still waiting for
-  the modem is held back for a while, so that the shore gets its real send status).
+  the modem is held back for a while, so that the shore gets its real send status). The
+  command report's backlog goes first, so the shore links each SMS to the commands it made.
 
 Each ``do_one_<thing>()`` is one small unit of work returning True if it got something done;
 :meth:`ShoreLink.do_one` runs the ones that are due and :meth:`ShoreLink.run` loops in a thread
@@ -45,7 +51,7 @@ from django.utils.dateparse import parse_datetime
 
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import FINAL, Status
-from commands.models import Command, Source
+from commands.models import Command, CommandEvent, Source
 from commands.services import command_enqueue
 from edge_client.outbox import Outbox, settle_fix_batch
 from edge_client.transports.base import Transport, TransportError
@@ -66,12 +72,21 @@ COMMANDS_PATH = "/api/v1/boat/commands/"
 ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
 NUMBERS_PATH = "/api/v1/boat/numbers/"
 SMS_PATH = "/api/v1/boat/sms/"
+REPORT_PATH = "/api/v1/boat/commands/report/"
+# The shore takes at most this many commands per report (commands.api.boat).
+REPORT_MAX_BATCH = 200
+REPORT_DETAIL_MAX = 2000  # the longest result_detail the shore takes in a report
+# A report the shore refuses whole: malformed, or a shore without the endpoint (older).
+REPORT_SKIP_STATUSES = frozenset({400, 404, 405})
+# Report batches sent before an SMS upload; more backlog than that, and the SMS waits a round.
+REPORT_BEFORE_SMS_MAX = 10
 # The shore will never take these acks (unknown command, illegal transition, malformed):
 # the same rule as the edge client's.
 ACK_DROP_STATUSES = frozenset({400, 404, 409})
 CREATED_BY = "shore"  # a local command queued from the shore: created_by and event actor
 FIX_WATERMARK = "shore_fix_watermark"  # outbox counters: the last local Fix id settled
 SMS_WATERMARK = "shore_sms_watermark"  # the last local SmsMessage id uploaded
+REPORT_WATERMARK = "shore_report_watermark"  # the last local CommandEvent id reported
 OUTBOX_NAME = "wg-shore-outbox.sqlite3"
 HANDED_OVER = (Status.SENT, Status.ACKNOWLEDGED)  # local statuses acked as "acknowledged"
 
@@ -136,6 +151,7 @@ class ShoreLink:
             _Step(self.do_one_flush_acks, config.push_period_s),
             _Step(self.do_one_push_fixes, config.push_period_s),
             _Step(self.do_one_poll_commands, config.poll_period_s),
+            _Step(self.do_one_report_commands, config.push_period_s),
             _Step(self.do_one_sync_numbers, config.numbers_period_s),
             _Step(self.do_one_upload_sms, config.sms_period_s),
         ]
@@ -377,6 +393,48 @@ class ShoreLink:
             self._count("acks_sent")
         return bool(items)
 
+    # -- commands created here, up ---------------------------------------------------------------
+
+    def do_one_report_commands(self) -> bool:
+        """Report the glider's own commands with events past the watermark, as they stand now;
+        True if a batch was settled (rejected entries are logged and skipped)."""
+        after = self.outbox.counter(REPORT_WATERMARK)
+        events = list(
+            CommandEvent.objects.filter(command__vessel=self.vessel, pk__gt=after)
+            .exclude(command__created_by=CREATED_BY)
+            .order_by("pk")
+            .values_list("pk", "command_id")[: min(self.config.batch_size, REPORT_MAX_BATCH)]
+        )
+        if not events:
+            return False
+        commands = list(Command.objects.filter(pk__in={c for _, c in events}).order_by("pk"))
+        try:
+            response = self.transport.post_json(
+                REPORT_PATH, {"commands": [command_report_wire(c) for c in commands]}
+            )
+        except TransportError as exc:
+            if exc.status not in REPORT_SKIP_STATUSES:
+                raise
+            # Never again taken (a shore without the endpoint, or a body it cannot read):
+            # holding it back would hold the SMS log too, so it is logged and skipped.
+            log.warning("shore refuses the command report (%s); skipping %d", exc, len(commands))
+        else:
+            self._link_ok()
+            answer = response.json()
+            if not isinstance(answer, dict) or not isinstance(answer.get("rejected"), list):
+                raise TransportError("the shore's command report answer is not the expected object")
+            for rejected in answer["rejected"]:
+                index = rejected.get("index") if isinstance(rejected, dict) else None
+                uid = (
+                    commands[index].uid
+                    if isinstance(index, int) and 0 <= index < len(commands)
+                    else "?"
+                )
+                log.warning("shore rejected the report of command %s: %s", uid, rejected)
+            self._count("commands_reported", len(commands) - len(answer["rejected"]))
+        self._set_counter(REPORT_WATERMARK, events[-1][0])
+        return True
+
     # -- authorised numbers down ----------------------------------------------------------------
 
     def do_one_sync_numbers(self) -> bool:
@@ -405,6 +463,11 @@ class ShoreLink:
 
     def do_one_upload_sms(self) -> bool:
         """Upload the next batch of the local SMS log; True if a batch went up."""
+        for _batch in range(REPORT_BEFORE_SMS_MAX):
+            if not self.do_one_report_commands():
+                break  # the shore knows every command an SMS below may name
+        else:
+            return True  # a long backlog of commands: the SMS log goes up once it is through
         after = self.outbox.counter(SMS_WATERMARK)
         rows = list(
             SmsMessage.objects.filter(vessel=self.vessel, pk__gt=after)
@@ -452,6 +515,23 @@ def fix_wire(fix: Fix) -> dict[str, Any]:
     if fix.readings:
         wire["readings"] = fix.readings
     return wire
+
+
+def command_report_wire(command: Command) -> dict[str, Any]:
+    """A local command as ``POST boat/commands/report/`` takes it: as it stands now."""
+    return {
+        "uid": str(command.uid),
+        "kind": command.kind,
+        "params": command.params,
+        "source": command.source,
+        "created_by": command.created_by,
+        "created_at": command.created_at.isoformat(),
+        "status": command.status,
+        "sent_at": _iso(command.sent_at),
+        "acknowledged_at": _iso(command.acknowledged_at),
+        "finished_at": _iso(command.finished_at),
+        "result_detail": command.result_detail[:REPORT_DETAIL_MAX],
+    }
 
 
 def sms_wire(message: SmsMessage) -> dict[str, Any]:

@@ -31,7 +31,14 @@ from sms.bridge.commands import DatabaseCommandSource
 from sms.bridge.dispatch import Dispatcher
 from sms.bridge.fixes import FixRecorder
 from sms.bridge.machine import BridgeMachine
-from sms.bridge.shore import CREATED_BY, FIX_WATERMARK, SMS_WATERMARK, ShoreConfig, ShoreLink
+from sms.bridge.shore import (
+    CREATED_BY,
+    FIX_WATERMARK,
+    REPORT_WATERMARK,
+    SMS_WATERMARK,
+    ShoreConfig,
+    ShoreLink,
+)
 from sms.level2.payload import PayloadConfig
 from sms.level2.runner import PayloadRunner, PtyPort, SerialLink
 from sms.level2.simulator import CcSimulator, SimConfig, VirtualClock
@@ -296,8 +303,57 @@ def test_the_sms_log_arrives_once(shore, link, glider):
     rows = shore.sql(uploaded)
     assert [(r[0], r[2]) for r in rows] == [("in", ""), ("out", "sent"), ("in", "")]
     assert rows[1][1] == "#FHEAD 230 QUEUED"
-    linked = shore.sql("SELECT COUNT(*) FROM sms_smsmessage_commands")
-    assert linked == [(0,)]  # the glider's SMS commands are the glider's, not the shore's
+    # The command the SMS made went up first (reported), so the shore links it to the SMS.
+    linked = shore.sql(
+        "SELECT m.direction, c.kind, c.reported FROM sms_smsmessage_commands l"
+        " JOIN sms_smsmessage m ON m.id = l.smsmessage_id"
+        " JOIN commands_command c ON c.id = l.command_id ORDER BY m.direction"
+    )
+    assert linked == [("in", "fhead", 1), ("out", "fhead", 1)]  # the SMS and its reply
+
+
+SHORE_COMMAND = "SELECT status, result_detail, reported, source, created_by FROM commands_command"
+
+
+def test_a_command_texted_to_the_glider_reaches_the_shore_with_its_result_and_its_sms(
+    shore, link, glider
+):
+    """Issue 11: "an operator on the shore sees the same command, its SMS and its result"."""
+    shore.manage("authorise_number", ANA, "--vessel", "glider", "--role", "control",
+                 "--name", "Ana")  # fmt: skip
+    settle(link)
+    sms_handle_incoming(vessel=glider, number=ANA, text="#FHEAD 230", received_at=T0)
+    settle(link)
+    (local,) = Command.objects.filter(vessel=glider)
+    uid = local.uid.hex
+    assert shore.sql(f"{SHORE_COMMAND} WHERE uid = ?", uid) == [("queued", "", 1, "sms", ANA)]
+    # The C&C takes it and ACKs (the Level 2 side, as in the tests above).
+    source = DatabaseCommandSource(vessel=glider)
+    assert source.take_next().ident == str(local.uid)
+    source.result_without_command(0)
+    settle(link)
+    assert shore.sql(f"{SHORE_COMMAND} WHERE uid = ?", uid) == [
+        ("done", "C&C: ACK (accepted)", 1, "sms", ANA)
+    ]
+    events = shore.sql(
+        "SELECT e.to_status, e.actor FROM commands_commandevent e JOIN commands_command c"
+        " ON c.id = e.command_id WHERE c.uid = ? ORDER BY e.id", uid
+    )  # fmt: skip
+    assert events == [(s, "vessel") for s in ("queued", "sent", "acknowledged", "done")]
+    sms = shore.sql(
+        "SELECT m.text FROM sms_smsmessage m JOIN sms_smsmessage_commands l"
+        " ON l.smsmessage_id = m.id JOIN commands_command c ON c.id = l.command_id"
+        " WHERE c.uid = ?", uid
+    )  # fmt: skip
+    assert sms == [("#FHEAD 230",)]
+    # The shore never offered the mirrored command back down: nothing was queued twice here
+    # and nothing is waiting for an ack there.
+    assert Command.objects.filter(vessel=glider).count() == 1
+    assert link.outbox.commands_interrupted() == []
+    # A lost watermark re-sends every report: duplicates on the shore, nothing changes.
+    link.outbox.bump(REPORT_WATERMARK, -link.outbox.counter(REPORT_WATERMARK))
+    settle(link)
+    assert shore.sql("SELECT COUNT(*) FROM commands_commandevent") == [(4,)]
 
 
 def test_no_failure_reaches_the_caller_when_the_shore_never_answered(tmp_path, glider):

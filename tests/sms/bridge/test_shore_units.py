@@ -12,7 +12,7 @@ from django.utils import timezone
 
 from commands.services import command_cancel, command_enqueue
 from edge_client.transports.base import Response, TransportError
-from sms.bridge.shore import CREATED_BY, ShoreLink
+from sms.bridge.shore import CREATED_BY, REPORT_PATH, REPORT_WATERMARK, SMS_PATH, ShoreLink
 from sms.bridge.shore_config import ShoreConfig
 from sms.models import AuthorisedNumber, SendStatus, SmsMessage
 from sms.services import (
@@ -145,12 +145,19 @@ class RecordingShore:
     """The transport boundary: records each upload and accepts it (the HTTP path is in
     test_shore.py against a live shore)."""
 
-    def __init__(self) -> None:
-        self.uploads: list[list[dict]] = []
+    def __init__(self, refuse: dict[str, int] | None = None) -> None:
+        self.uploads: list[list[dict]] = []  # SMS log batches
+        self.reports: list[list[dict]] = []  # command report batches
+        self.calls: list[str] = []
+        self.refuse = refuse or {}  # path → an HTTP status to answer it with
 
     def post_json(self, path: str, body: dict) -> Response:
-        self.uploads.append(body["messages"])
-        answer = {"accepted": len(body["messages"]), "duplicates": 0, "rejected": []}
+        self.calls.append(path)
+        if path in self.refuse:
+            raise TransportError(f"HTTP {self.refuse[path]}", status=self.refuse[path])
+        entries = body["commands"] if path == REPORT_PATH else body["messages"]
+        (self.reports if path == REPORT_PATH else self.uploads).append(entries)
+        answer = {"accepted": len(entries), "duplicates": 0, "rejected": []}
         return Response(200, {}, json.dumps(answer).encode())
 
     def get(self, path: str, etag: str | None = None) -> Response:
@@ -180,3 +187,63 @@ def test_a_reply_held_for_the_cc_goes_up_only_once_it_has_its_send_status(tmp_pa
         assert [(m["direction"], m["status"]) for m in shore.uploads[-1]] == [("out", "sent")]
     finally:
         link.close()
+
+
+@pytest.fixture
+def recording_link(tmp_path, glider):
+    def make(shore: RecordingShore) -> ShoreLink:
+        config = ShoreConfig(url="http://127.0.0.1:9", key="k", outbox_path=str(tmp_path / "o.db"))
+        link = ShoreLink(vessel=glider, config=config, transport=shore)
+        links.append(link)
+        return link
+
+    links: list[ShoreLink] = []
+    yield make
+    for link in links:
+        link.close()
+
+
+def test_the_gliders_own_commands_are_reported_at_each_change_and_shore_ones_never(
+    recording_link, glider
+):
+    shore = RecordingShore()
+    link = recording_link(shore)
+    shore_command(glider, bearing=10)  # from the shore: its acks carry its state
+    own = command_enqueue(vessel=glider, kind="fhead", params={"bearing": 230},
+                          source="sms", created_by=ANA)  # fmt: skip
+    assert link.do_one_report_commands() is True
+    assert link.do_one_report_commands() is False  # nothing changed since
+    ((sent,),) = shore.reports
+    assert (sent["uid"], sent["status"], sent["created_by"]) == (str(own.uid), "queued", ANA)
+    assert sent["params"] == {"bearing": 230} and sent["source"] == "sms"
+    command_cancel(command=own, actor="operator on the glider")
+    assert link.do_one_report_commands() is True
+    assert [(c["uid"], c["status"]) for c in shore.reports[-1]] == [(str(own.uid), "cancelled")]
+
+
+def test_the_command_report_goes_before_the_sms_log_that_names_it(recording_link, glider):
+    authorised_number_authorise(number=ANA, vessels=[glider], role="control", name="Ana")
+    sms_handle_incoming(vessel=glider, number=ANA, text="#FHEAD 230", received_at=timezone.now())
+    shore = RecordingShore()
+    link = recording_link(shore)
+    assert link.do_one_upload_sms() is True  # the SMS step alone: it reports first
+    assert shore.calls[:2] == [REPORT_PATH, SMS_PATH]
+    sms_in = shore.uploads[0][0]  # (its reply waits for the modem)
+    assert sms_in["commands"] == [shore.reports[0][0]["uid"]]
+
+
+def test_a_shore_without_the_report_endpoint_holds_back_neither_the_report_nor_the_sms_log(
+    recording_link, glider
+):
+    authorised_number_authorise(number=ANA, vessels=[glider], role="control", name="Ana")
+    sms_handle_incoming(vessel=glider, number=ANA, text="#FHEAD 230", received_at=timezone.now())
+    link = recording_link(RecordingShore(refuse={REPORT_PATH: 404}))
+    assert link.do_one_upload_sms() is True
+    assert link.outbox.counter(REPORT_WATERMARK) > 0 and link.state.reachable is not False
+
+
+def test_a_shore_that_is_down_gets_the_report_later(recording_link, glider):
+    command_enqueue(vessel=glider, kind="fhead", params={"bearing": 5}, created_by=ANA)
+    down = recording_link(RecordingShore(refuse={REPORT_PATH: 503}))
+    assert down.do_one() is False
+    assert down.state.reachable is False and down.outbox.counter(REPORT_WATERMARK) == 0
