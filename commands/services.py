@@ -278,7 +278,8 @@ def _supersede_older_navigation(command: Command, now: dt.datetime) -> None:
         cursor.execute(
             f"UPDATE {table} SET status = %s, finished_at = %s, result_detail = %s "
             f"WHERE vessel_id = %s AND status = %s AND kind IN ({kinds}) AND id <> %s "
-            "RETURNING id",
+            # A command the vessel made itself and only reports up is the vessel's to change.
+            "AND reported = %s RETURNING id",
             [
                 Status.SUPERSEDED.value,
                 connection.ops.adapt_datetimefield_value(now),
@@ -287,6 +288,7 @@ def _supersede_older_navigation(command: Command, now: dt.datetime) -> None:
                 Status.QUEUED.value,
                 *_NAVIGATION_KINDS,
                 command.pk,
+                False,
             ],
         )
         superseded = sorted(row[0] for row in cursor.fetchall())
@@ -396,8 +398,17 @@ def command_ack(
 
 @transaction.atomic
 def command_cancel(*, command: Command, actor: str, now: dt.datetime | None = None) -> Command:
-    """Cancel a queued or sent command. A sent one may already have reached the boat."""
+    """Cancel a queued or sent command. A sent one may already have reached the boat.
+
+    A command the vessel created itself and only reports up (``reported``) is the vessel's:
+    cancelling it here would change nothing there, so it is refused.
+    """
     now = now or timezone.now()
+    if command.reported:
+        raise CommandError(
+            "this command was created on the vessel and is only reported here; cancel it there",
+            field="status",
+        )
     # Races with the boat poll (queued→sent) and acks: when the conditional UPDATE loses,
     # read the new status and try again from there (sent may still be cancelled; acknowledged
     # may not). Three tries: each loss means the command moved forward, and it can only move

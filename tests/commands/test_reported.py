@@ -12,7 +12,12 @@ from rest_framework.test import APIClient
 
 from commands.errors import CatalogError, CommandError, TransitionError
 from commands.models import Command, CommandEvent
-from commands.services import command_claim_open, command_enqueue, command_record_reported
+from commands.services import (
+    command_cancel,
+    command_claim_open,
+    command_enqueue,
+    command_record_reported,
+)
 from tests.conftest import boat_client
 from vessels.models import Vessel
 from vessels.services import vessel_key_issue
@@ -196,13 +201,16 @@ def test_the_report_needs_a_vessel_key_and_a_commands_list(anonymous, revoked_bo
     assert glider_boat.post(REPORT, too_many, format="json").status_code == 400
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="command_enqueue's supersede (commands.services._supersede_older_navigation, being "
-    "rewritten on branch sms-speed) must also filter reported=False; left to that merge",
-)
 def test_a_shore_navigation_order_never_supersedes_a_reported_one(glider):
     mirrored, _ = report(glider, uuid.uuid4(), "queued")
     command_enqueue(vessel=glider, kind="fhead", params={"bearing": 10})
     mirrored.refresh_from_db()
     assert mirrored.status == "queued"
+
+
+def test_an_operator_cannot_cancel_a_command_the_vessel_only_reports(glider):
+    mirrored, _ = report(glider, uuid.uuid4(), "sent")
+    with pytest.raises(CommandError, match="created on the vessel"):
+        command_cancel(command=mirrored, actor="alice")
+    mirrored.refresh_from_db()
+    assert mirrored.status == "sent"
