@@ -23,6 +23,7 @@ from vessels import missionfiles
 from vessels.errors import MissionFileError
 from vessels.missions import DEFAULT_CRUISE_SPEED_MPS, format_distance, format_duration
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
+from vessels.selectors import missions_visible_to
 from vessels.services import (
     mission_export,
     mission_import,
@@ -240,10 +241,18 @@ class MissionItemInline(admin.TabularInline):
     }
 
 
+def _vessels_visible_to(user: Any) -> QuerySet[Vessel]:
+    # The rule of vessels.selectors.missions_visible_to: without the right to see vessels, a
+    # mission can only be a template, and no vessel's name or position reaches the page.
+    if not user.has_perm("vessels.view_vessel"):
+        return Vessel.objects.none()
+    return Vessel.objects.all()
+
+
 class MissionImportForm(forms.Form):
     file = forms.FileField(help_text="QGroundControl .plan, Mission Planner .waypoints or GeoJSON.")
     vessel = forms.ModelChoiceField(
-        Vessel.objects.all(), required=False, help_text="Empty: a template any vessel can run."
+        Vessel.objects.none(), required=False, help_text="Empty: a template any vessel can run."
     )
     name = forms.CharField(max_length=100, required=False, help_text="Empty: the file's own name.")
     skip_unsupported = forms.BooleanField(
@@ -251,6 +260,10 @@ class MissionImportForm(forms.Form):
         help_text="Import the rest when the file holds items a mission cannot (each one is "
         "listed); otherwise such a file is refused.",
     )
+
+    def __init__(self, *args: Any, user: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.fields["vessel"].queryset = _vessels_visible_to(user)
 
 
 @admin.register(Mission)
@@ -262,6 +275,20 @@ class MissionAdmin(admin.ModelAdmin):
     inlines = [MissionItemInline]
     fields = ["name", "vessel", "end", "home_lat", "home_lon", "notes", "route", "export_links"]
     readonly_fields = ["route", "export_links"]
+
+    def get_queryset(self, request: HttpRequest) -> QuerySet[Mission]:
+        return missions_visible_to(request.user)
+
+    def get_list_filter(self, request: HttpRequest) -> Any:
+        # The vessel filter lists every vessel's name.
+        if not request.user.has_perm("vessels.view_vessel"):
+            return [f for f in self.list_filter if f != "vessel"]
+        return self.list_filter
+
+    def formfield_for_foreignkey(self, db_field: Any, request: HttpRequest, **kwargs: Any) -> Any:
+        if db_field.name == "vessel":
+            kwargs["queryset"] = _vessels_visible_to(request.user)
+        return super().formfield_for_foreignkey(db_field, request, **kwargs)
 
     def get_urls(self) -> list[Any]:
         view = self.admin_site.admin_view
@@ -354,7 +381,7 @@ class MissionAdmin(admin.ModelAdmin):
     def import_view(self, request: HttpRequest) -> HttpResponse:
         if not self.has_add_permission(request):
             raise PermissionDenied
-        form = MissionImportForm(request.POST or None, request.FILES or None)
+        form = MissionImportForm(request.POST or None, request.FILES or None, user=request.user)
         if request.method == "POST" and form.is_valid():
             upload = form.cleaned_data["file"]
             try:
