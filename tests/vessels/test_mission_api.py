@@ -267,6 +267,16 @@ def test_a_template_is_sent_to_the_vessel_named(planner: APIClient, vessel_b: Ve
     assert sent.status_code == 201 and Command.objects.get().vessel == vessel_b
 
 
+def test_sending_to_an_unknown_vessel_is_a_400_naming_the_field(
+    planner: APIClient, vessel_a: Vessel
+) -> None:
+    template = saved(None, route(0, 300))
+    response = planner.post(send_url(template), {"vessel": "nope"}, format="json")
+    assert response.status_code == 400
+    assert response.json()["detail"] == {"vessel": ["no vessel 'nope'"]}
+    assert not Command.objects.exists()
+
+
 def test_a_mission_failing_its_checks_is_not_sent_and_says_why(
     planner: APIClient, vessel_a: Vessel, settings: Any
 ) -> None:
