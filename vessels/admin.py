@@ -21,7 +21,12 @@ from django.utils.html import format_html, format_html_join
 
 from vessels import missionfiles
 from vessels.errors import MissionFileError
-from vessels.missions import DEFAULT_CRUISE_SPEED_MPS, format_distance, format_duration
+from vessels.missions import (
+    DEFAULT_CRUISE_SPEED_MPS,
+    MISSION_MAX_ITEMS,
+    format_distance,
+    format_duration,
+)
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
 from vessels.selectors import missions_visible_to
 from vessels.services import (
@@ -232,6 +237,12 @@ class MissionItemInline(admin.TabularInline):
     model = MissionItem
     extra = 3
     fields = ["seq", "lat", "lon", "hold_s", "radius_m", "speed_mps"]
+    # mission_save_items refuses more; the formset says so on the page instead of failing.
+    max_num = MISSION_MAX_ITEMS
+
+    def get_formset(self, request: HttpRequest, obj: Any = None, **kwargs: Any) -> Any:
+        return super().get_formset(request, obj, validate_max=True, **kwargs)
+
     # Narrow number boxes: the admin's default width puts the last columns off screen.
     formfield_overrides = {
         models.FloatField: {

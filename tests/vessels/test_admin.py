@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
+from django.core.files.uploadedfile import SimpleUploadedFile
 from django.test import Client
 
 from tests.conftest import make_user
 from vessels.keys import hash_key
+from vessels.missions import MISSION_MAX_ITEMS
 from vessels.models import Mission, Vessel, VesselKey
 from vessels.services import mission_save, mission_save_items
 
@@ -268,4 +271,27 @@ def test_a_user_who_may_not_see_vessels_cannot_give_a_mission_a_vessel(
             {"file": file, "vessel": vessel_a.pk, "skip_unsupported": "on"},
         )
     assert "Select a valid choice" in response.content.decode()
+    assert not Mission.objects.exists()
+
+
+def test_the_admin_refuses_a_mission_past_the_item_limit_on_the_page(
+    admin_ui: Client, vessel_a: Vessel, settings: Any
+) -> None:
+    settings.DATA_UPLOAD_MAX_NUMBER_FIELDS = 10_000  # 4 fields a row; Django's default is 1,000
+    points = [(-32.0, 115.0 + n / 1000) for n in range(MISSION_MAX_ITEMS + 1)]
+    response = admin_ui.post("/admin/vessels/mission/add/", mission_form(vessel_a, *points))
+    assert response.status_code == 200
+    assert f"Please submit at most {MISSION_MAX_ITEMS} forms" in response.content.decode()
+    assert not Mission.objects.exists()
+
+
+def test_importing_a_file_past_the_item_limit_is_refused_on_the_form(admin_ui: Client) -> None:
+    rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t-31.98\t115.83\t0\t1"]
+    rows += [
+        f"{n}\t0\t3\t16\t0\t0\t0\t0\t-31.98\t{115.83 + n / 1e4:.6f}\t0\t1" for n in range(1, 601)
+    ]
+    file = SimpleUploadedFile("long.waypoints", ("\n".join(rows) + "\n").encode())
+    response = admin_ui.post("/admin/vessels/mission/import/", {"file": file})
+    assert response.status_code == 200
+    assert "the file has 600 waypoints; a mission holds at most 500" in response.content.decode()
     assert not Mission.objects.exists()

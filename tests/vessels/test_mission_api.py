@@ -8,12 +8,16 @@ from typing import Any
 import pytest
 from django.contrib.auth.models import User
 from django.core.files.uploadedfile import SimpleUploadedFile
+from django.db import connection
+from django.test.utils import CaptureQueriesContext
 from rest_framework.test import APIClient
 
 from commands.models import Command
 from tests.conftest import OPERATOR_PERMS, make_user
 from tests.support import commands_url
 from vessels import geo, missionfiles
+from vessels.errors import MissionCheckError
+from vessels.missions import MISSION_MAX_ITEMS
 from vessels.models import Mission, Vessel
 from vessels.services import mission_save, mission_save_items
 
@@ -199,6 +203,51 @@ def test_an_import_without_a_file_or_of_garbage_is_a_400(planner: APIClient) -> 
     garbage = planner.post(IMPORT, upload("x.plan", b"\x00\x01 nope"), format="multipart")
     assert garbage.status_code == 400
     assert "not a QGroundControl plan file" in garbage.json()["detail"]["file"][0]
+
+
+def waypoints_file(count: int) -> bytes:
+    rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t-31.98\t115.83\t0\t1"]
+    for n in range(1, count + 1):
+        lon = 115.83 + n / 10_000
+        rows.append(f"{n}\t0\t3\t16\t0\t0\t0\t0\t-31.98\t{lon:.6f}\t0\t1")
+    return ("\n".join(rows) + "\n").encode()
+
+
+def test_a_mission_past_the_item_limit_is_refused_and_nothing_is_stored(
+    planner: APIClient,
+) -> None:
+    items = route(*range(0, 10 * (MISSION_MAX_ITEMS + 1), 10))
+    response = planner.post(MISSIONS, {"name": "Long", "items": items}, format="json")
+    assert response.status_code == 400
+    assert f"no more than {MISSION_MAX_ITEMS} elements" in str(response.json()["detail"]["items"])
+    assert not Mission.objects.exists()
+
+
+def test_a_waypoints_file_past_the_item_limit_is_refused_clearly(planner: APIClient) -> None:
+    content = waypoints_file(600)
+    response = planner.post(IMPORT, upload("long.waypoints", content), format="multipart")
+    assert response.status_code == 400
+    assert response.json()["detail"]["file"] == [
+        f"the file has 600 waypoints; a mission holds at most {MISSION_MAX_ITEMS}"
+    ]
+    assert not Mission.objects.exists()
+
+
+def test_saving_items_past_the_limit_keeps_the_old_ones(vessel_a: Vessel) -> None:
+    mission = saved(vessel_a, route(0, 300))
+    with pytest.raises(MissionCheckError, match=f"601 waypoints; at most {MISSION_MAX_ITEMS}"):
+        mission_save_items(mission=mission, items=route(*range(0, 6010, 10)))
+    assert mission.items.count() == 2
+
+
+def test_a_full_mission_is_written_in_a_few_statements_not_one_per_item(
+    vessel_a: Vessel,
+) -> None:
+    mission = saved(vessel_a, route(0, 300))
+    with CaptureQueriesContext(connection) as queries:
+        mission_save_items(mission=mission, items=route(*range(0, 10 * MISSION_MAX_ITEMS, 10)))
+    assert mission.items.count() == MISSION_MAX_ITEMS
+    assert len(queries) < 10
 
 
 # --- export ---

@@ -28,6 +28,7 @@ from rest_framework.response import Response
 from vessels import missionfiles
 from vessels.api.boat import JsonOnly
 from vessels.api.parsers import JSONParser
+from vessels.missions import MISSION_MAX_ITEMS
 from vessels.models import Mission, MissionItem, Vessel
 from vessels.permissions import ModelPermissions
 from vessels.selectors import missions_visible_to
@@ -84,7 +85,7 @@ class MissionSerializer(serializers.ModelSerializer):
     vessel = VesselSlugField(
         slug_field="slug", allow_null=True, required=False, help_text="null: a template"
     )
-    items = MissionItemSerializer(many=True, required=False)
+    items = MissionItemSerializer(many=True, required=False, max_length=MISSION_MAX_ITEMS)
     legs = serializers.SerializerMethodField()
     total_m = serializers.SerializerMethodField(help_text="metres along every leg")
     total_s = serializers.SerializerMethodField(
