@@ -392,8 +392,20 @@ class MissionAdmin(admin.ModelAdmin):
     def import_view(self, request: HttpRequest) -> HttpResponse:
         if not self.has_add_permission(request):
             raise PermissionDenied
-        form = MissionImportForm(request.POST or None, request.FILES or None, user=request.user)
-        if request.method == "POST" and form.is_valid():
+        too_big = None
+        if request.method == "POST":
+            # Before request.FILES: the view would otherwise take the whole upload first.
+            try:
+                missionfiles.check_request_size(request.META.get("CONTENT_LENGTH"))
+            except MissionFileError as exc:
+                too_big = exc.message
+        if too_big:
+            # An unbound form (the body stays unread) showing the error on its file field.
+            form = MissionImportForm(user=request.user)
+            form.errors["file"] = form.error_class([too_big])
+        else:
+            form = MissionImportForm(request.POST or None, request.FILES or None, user=request.user)
+        if request.method == "POST" and not too_big and form.is_valid():
             upload = form.cleaned_data["file"]
             try:
                 missionfiles.check_size(upload.size)

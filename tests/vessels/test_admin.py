@@ -295,3 +295,17 @@ def test_importing_a_file_past_the_item_limit_is_refused_on_the_form(admin_ui: C
     assert response.status_code == 200
     assert "the file has 600 waypoints; a mission holds at most 500" in response.content.decode()
     assert not Mission.objects.exists()
+
+
+def test_an_import_declared_too_big_is_refused_on_the_form_before_it_is_read(
+    admin_ui: Client,
+) -> None:
+    with (FILES / "survey.plan").open("rb") as file:  # small: only the declared length refuses
+        response = admin_ui.post(
+            "/admin/vessels/mission/import/",
+            {"file": file, "skip_unsupported": "on"},
+            CONTENT_LENGTH=str(20 * 1024 * 1024),
+        )
+    assert response.status_code == 200
+    assert "the upload is 21.0 MB; a mission file is at most 5.2 MB" in response.content.decode()
+    assert not Mission.objects.exists()

@@ -377,5 +377,25 @@ def test_the_openapi_schema_documents_the_mission_endpoints(planner: APIClient) 
 def test_an_oversized_file_is_refused_unread(planner: APIClient) -> None:
     big = b"QGC WPL 110\n" + b" " * missionfiles.MAX_FILE_BYTES
     response = planner.post(IMPORT, upload("big.waypoints", big), format="multipart")
-    assert response.status_code == 400
+    assert response.status_code == 400  # within the body's multipart allowance: read, then refused
     assert "a mission file is at most 5.2 MB" in response.json()["detail"]["file"][0]
+    bigger = big + b" " * missionfiles.MULTIPART_ALLOWANCE_BYTES
+    response = planner.post(IMPORT, upload("big.waypoints", bigger), format="multipart")
+    assert response.status_code == 413
+    assert response.json() == {
+        "error": "too_large",
+        "detail": "the upload is 5.3 MB; a mission file is at most 5.2 MB",
+    }
+
+
+def test_an_upload_declared_too_big_is_refused_before_its_body_is_read(
+    planner: APIClient,
+) -> None:
+    # The body is a small valid file: only the declared length can refuse it.
+    declared = str(missionfiles.MAX_FILE_BYTES * 2)
+    response = planner.post(
+        IMPORT, upload("matilda-bay.waypoints"), format="multipart", CONTENT_LENGTH=declared
+    )
+    assert response.status_code == 413
+    assert "a mission file is at most 5.2 MB" in response.json()["detail"]
+    assert not Mission.objects.exists()
