@@ -353,14 +353,20 @@ def track_overview_refresh(*, vessel_id: int) -> int:
 
 
 def _runs(minutes: list[int]) -> list[tuple[int, int]]:
-    """Sorted minute starts as [lo, hi) ranges, near ones joined."""
+    """Sorted minute starts as [lo, hi) ranges, near ones joined, none longer than
+    REBUILD_WINDOW_S: each range's fixes are read into memory at once, and a backlog (a week of
+    store-and-forward, or a whole history marked by a migration) must not be read whole."""
     runs: list[list[int]] = []
     for m in minutes:
         if runs and m - runs[-1][1] <= DIRTY_RUN_JOIN_S:
             runs[-1][1] = m + WIDTHS[0]
         else:
             runs.append([m, m + WIDTHS[0]])
-    return [(lo, hi) for lo, hi in runs]
+    return [
+        (start, min(start + REBUILD_WINDOW_S, hi))
+        for lo, hi in runs
+        for start in range(lo, hi, REBUILD_WINDOW_S)
+    ]
 
 
 def track_overview_rebuild(*, vessel: Vessel) -> None:
