@@ -25,6 +25,7 @@ from commands.lifecycle import (
 )
 from commands.models import Command, CommandEvent, Source
 from vessels import missions
+from vessels.clock import check_plausible
 from vessels.models import Mission, Vessel
 from vessels.services import vessel_bump_commands_version
 
@@ -586,6 +587,34 @@ def _report_rank(status: Status) -> int:
     return _REPORT_RANK.get(status, _FINAL_RANK)
 
 
+# A vessel reports only what was made on board: by SMS, or by the vessel itself.
+REPORTED_SOURCES = (Source.SMS.value, Source.SYSTEM.value)
+CREATED_BY_MAX = 150  # Command.created_by's max_length
+
+
+def _reported_by(vessel: Vessel, said: str) -> str:
+    """``vessel:<slug>/`` and what the vessel says: a vessel's word never passes for an
+    operator's name in the audit trail."""
+    prefix = f"vessel:{vessel.slug}/"
+    return prefix + _storable_text(said, CREATED_BY_MAX - len(prefix))
+
+
+def _check_reported_times(stamps: dict[str, dt.datetime | None], *, now: dt.datetime) -> None:
+    """Each given stamp plausible (telemetry's rule) and in the order of the lifecycle:
+    created_at <= sent_at <= acknowledged_at <= finished_at; CommandError names the field."""
+    earlier: tuple[str, dt.datetime] | None = None
+    for name, when in stamps.items():
+        if when is None:
+            continue
+        try:
+            check_plausible(when, now=now, max_future_s=settings.FIX_MAX_FUTURE_S)
+        except ValueError as exc:
+            raise CommandError(f"{name} {exc}", field=name) from None
+        if earlier is not None and when < earlier[1]:
+            raise CommandError(f"{name} is before {earlier[0]}", field=name)
+        earlier = (name, when)
+
+
 @transaction.atomic
 def command_record_reported(
     *,
@@ -616,8 +645,14 @@ def command_record_reported(
         reported = Status(status)
     except ValueError:
         raise CommandError(f"unknown status {status!r}", field="status") from None
-    detail = _storable_text(result_detail)
+    if source not in REPORTED_SOURCES:
+        # An operator's command is made on the shore, never reported by a vessel's key.
+        raise CommandError(
+            f"a reported command comes from {' or '.join(REPORTED_SOURCES)}", field="source"
+        )
     stamps = {"sent_at": sent_at, "acknowledged_at": acknowledged_at, "finished_at": finished_at}
+    _check_reported_times({"created_at": created_at, **stamps}, now=now)
+    detail = _storable_text(result_detail)
     existing = Command.objects.select_for_update().filter(uid=uid).first()
     if existing is not None:
         if existing.vessel_id != vessel.pk:
@@ -640,7 +675,7 @@ def command_record_reported(
         kind=valid.kind,
         params=valid.params,
         source=source,
-        created_by=_storable_text(created_by, 150),
+        created_by=_reported_by(vessel, created_by),
         status=Status.QUEUED,
         reported=True,
     )

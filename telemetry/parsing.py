@@ -12,9 +12,11 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+# The plausibility rule is shared with the other uploads (reported commands, the SMS log).
+from vessels.clock import PLAUSIBLE_FROM as PLAUSIBLE_FROM  # re-exported
+from vessels.clock import check_plausible
+
 UTC = dt.UTC
-# No vessel of this fleet reported before the original SPAB system existed (thesis, 2018).
-PLAUSIBLE_FROM = dt.datetime(2018, 1, 1, tzinfo=UTC)
 # The old Shoreside server counted time in units of 10 µs since 2015-01-01 (DESIGN §5).
 LEGACY_EPOCH = dt.datetime(2015, 1, 1, tzinfo=UTC)
 LEGACY_TICKS_PER_S = 100_000
@@ -87,15 +89,8 @@ def parse_time(value: Any, *, now: dt.datetime, max_future_s: float) -> dt.datet
             when = dt.datetime.fromtimestamp(seconds, UTC)
         except (OverflowError, OSError, ValueError):
             raise ValueError("is out of range") from None
-    _check_plausible(when, now=now, max_future_s=max_future_s)
+    check_plausible(when, now=now, max_future_s=max_future_s)
     return when.astimezone(UTC)
-
-
-def _check_plausible(when: dt.datetime, *, now: dt.datetime, max_future_s: float) -> None:
-    if when < PLAUSIBLE_FROM:
-        raise ValueError(f"is before {PLAUSIBLE_FROM:%Y-%m-%d}")
-    if (when - now).total_seconds() > max_future_s:
-        raise ValueError(f"is more than {int(max_future_s)} s in the future (check the clock)")
 
 
 def _optional(
@@ -203,7 +198,7 @@ def legacy_time(raw: Any, *, now: dt.datetime, max_future_s: float) -> dt.dateti
     for interpret in (_from_unix_seconds, _from_legacy_ticks):
         try:
             when = interpret(value)
-            _check_plausible(when, now=now, max_future_s=max_future_s)
+            check_plausible(when, now=now, max_future_s=max_future_s)
         except (OverflowError, OSError, ValueError):
             continue
         return when

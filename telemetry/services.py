@@ -290,6 +290,13 @@ DIRTY_RUN_JOIN_S = 1800
 REBUILD_WINDOW_S = 86400
 
 
+# An existing mark is updated to itself rather than left alone: the update locks the row until
+# the ingest commits, so a refresh that claims (deletes) the mark meanwhile waits, and then reads
+# the new fixes. DO NOTHING takes no lock: on PostgreSQL a refresh could claim the mark and
+# rebuild before the ingest committed, leaving its fixes out of the overview for good.
+_KEEP_MARK_LOCKED = 'DO UPDATE SET "start" = EXCLUDED."start"'
+
+
 def _dirty_minutes(times: Sequence[dt.datetime]) -> list[int]:
     return sorted({bucket_start(t.timestamp(), WIDTHS[0]) for t in times})
 
@@ -304,7 +311,7 @@ def _mark_dirty(vessel_id: int, times: Sequence[dt.datetime]) -> None:
     rows = ", ".join(["(%s, %s)"] * len(minutes))
     sql = (
         f"INSERT INTO {table} ({qn('vessel_id')}, {qn('start')}) VALUES {rows}"
-        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) DO NOTHING"
+        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) {_KEEP_MARK_LOCKED}"
     )
     with connection.cursor() as cursor:
         cursor.execute(sql, [value for m in minutes for value in (vessel_id, m)])
@@ -319,7 +326,7 @@ def _mark_dirty_cte() -> str:
         f"dirty AS (INSERT INTO {table} ({qn('vessel_id')}, {qn('start')})"
         f" SELECT DISTINCT %s, (floor(extract(epoch FROM recorded_at) / {minute}) * {minute})"
         "::bigint FROM inserted"
-        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) DO NOTHING)"
+        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) {_KEEP_MARK_LOCKED})"
     )
 
 
@@ -346,14 +353,20 @@ def track_overview_refresh(*, vessel_id: int) -> int:
 
 
 def _runs(minutes: list[int]) -> list[tuple[int, int]]:
-    """Sorted minute starts as [lo, hi) ranges, near ones joined."""
+    """Sorted minute starts as [lo, hi) ranges, near ones joined, none longer than
+    REBUILD_WINDOW_S: each range's fixes are read into memory at once, and a backlog (a week of
+    store-and-forward, or a whole history marked by a migration) must not be read whole."""
     runs: list[list[int]] = []
     for m in minutes:
         if runs and m - runs[-1][1] <= DIRTY_RUN_JOIN_S:
             runs[-1][1] = m + WIDTHS[0]
         else:
             runs.append([m, m + WIDTHS[0]])
-    return [(lo, hi) for lo, hi in runs]
+    return [
+        (start, min(start + REBUILD_WINDOW_S, hi))
+        for lo, hi in runs
+        for start in range(lo, hi, REBUILD_WINDOW_S)
+    ]
 
 
 def track_overview_rebuild(*, vessel: Vessel) -> None:

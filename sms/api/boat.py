@@ -17,7 +17,9 @@ import hashlib
 import json
 from typing import Any
 
+from django.conf import settings
 from django.http import HttpResponseNotModified
+from django.utils import timezone
 from drf_spectacular.utils import OpenApiParameter, extend_schema, inline_serializer
 from rest_framework import serializers
 from rest_framework.exceptions import ParseError
@@ -37,6 +39,7 @@ from sms.models import (
 )
 from sms.services import DETAIL_MAX, TEXT_STORE_MAX, sms_log_entry_store
 from vessels.api.boat import BoatView
+from vessels.clock import check_plausible
 from vessels.models import Vessel
 
 # Entries per upload: the glider sends its backlog in batches of this size or fewer.
@@ -96,6 +99,9 @@ class NumbersView(BoatView):
         return response
 
 
+SMS_TIMES = ("created_at", "received_at", "modem_timestamp", "sent_at")
+
+
 class SmsEntryIn(serializers.Serializer):
     """One entry of the vessel's SMS log as the glider uploads it."""
 
@@ -131,6 +137,13 @@ class SmsEntryIn(serializers.Serializer):
     )
 
     def validate(self, attrs: dict[str, Any]) -> dict[str, Any]:
+        now = timezone.now()
+        for name in SMS_TIMES:  # the fixes' rule: a reset clock's stamp is not kept
+            if attrs.get(name) is not None:
+                try:
+                    check_plausible(attrs[name], now=now, max_future_s=settings.FIX_MAX_FUTURE_S)
+                except ValueError as exc:
+                    raise serializers.ValidationError({name: [f"{name} {exc}"]}) from None
         status = attrs.get("status", "")
         if attrs["direction"] == Direction.IN and status:
             raise serializers.ValidationError({"status": ["only an outgoing SMS has a status"]})

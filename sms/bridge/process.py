@@ -116,7 +116,7 @@ class BridgeConfig:
     power_command: str = ""  # empty: a power-down notice is only logged
     # The shore server (issue 11 §6): WG_SHORE_URL and WG_SHORE_KEY, as sms.bridge.shore reads.
     shore_url: str = ""
-    shore_key: str = ""
+    shore_key: str = field(default="", repr=False)  # a secret: never in a log line
     tick_s: float = TICK_S
     reconnect_delay_s: float = RECONNECT_DELAY_S
 

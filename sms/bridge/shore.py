@@ -19,7 +19,8 @@ through the boat API like any boat:
 - the commands created here (by SMS, or the glider's own admin) are reported up as they stand
   (``POST boat/commands/report/``) whenever one of their events is past a third watermark (the
   last local CommandEvent id reported), so the shore mirrors each status change; a re-send is
-  a duplicate there. Shore commands (``created_by`` == :data:`CREATED_BY`) are not reported:
+  a duplicate there; a report refused whole (404/405, a 400, a shore that is down) is kept and
+  the link backs off. Shore commands (``created_by`` == :data:`CREATED_BY`) are not reported:
   their acks carry their state;
 - the SMS log goes up in id order behind a second watermark (an outgoing SMS still waiting for
   the modem is held back for a while, so that the shore gets its real send status). The
@@ -76,8 +77,6 @@ REPORT_PATH = "/api/v1/boat/commands/report/"
 # The shore takes at most this many commands per report (commands.api.boat).
 REPORT_MAX_BATCH = 200
 REPORT_DETAIL_MAX = 2000  # the longest result_detail the shore takes in a report
-# A report the shore refuses whole: malformed, or a shore without the endpoint (older).
-REPORT_SKIP_STATUSES = frozenset({400, 404, 405})
 # Report batches sent before an SMS upload; more backlog than that, and the SMS waits a round.
 REPORT_BEFORE_SMS_MAX = 10
 # The shore will never take these acks (unknown command, illegal transition, malformed):
@@ -397,7 +396,8 @@ class ShoreLink:
 
     def do_one_report_commands(self) -> bool:
         """Report the glider's own commands with events past the watermark, as they stand now;
-        True if a batch was settled (rejected entries are logged and skipped)."""
+        True if a batch was settled (entries the shore rejects are logged and skipped; a
+        refused request is kept whole and the link backs off)."""
         after = self.outbox.counter(REPORT_WATERMARK)
         events = list(
             CommandEvent.objects.filter(command__vessel=self.vessel, pk__gt=after)
@@ -413,25 +413,25 @@ class ShoreLink:
                 REPORT_PATH, {"commands": [command_report_wire(c) for c in commands]}
             )
         except TransportError as exc:
-            if exc.status not in REPORT_SKIP_STATUSES:
-                raise
-            # Never again taken (a shore without the endpoint, or a body it cannot read):
-            # holding it back would hold the SMS log too, so it is logged and skipped.
-            log.warning("shore refuses the command report (%s); skipping %d", exc, len(commands))
-        else:
-            self._link_ok()
-            answer = response.json()
-            if not isinstance(answer, dict) or not isinstance(answer.get("rejected"), list):
-                raise TransportError("the shore's command report answer is not the expected object")
-            for rejected in answer["rejected"]:
-                index = rejected.get("index") if isinstance(rejected, dict) else None
-                uid = (
-                    commands[index].uid
-                    if isinstance(index, int) and 0 <= index < len(commands)
-                    else "?"
-                )
-                log.warning("shore rejected the report of command %s: %s", uid, rejected)
-            self._count("commands_reported", len(commands) - len(answer["rejected"]))
+            # Nothing is skipped on a refusal: a 404/405 is a proxy or a shore being upgraded,
+            # and the shore names bad entries one by one inside a 200 ("rejected"), so a
+            # whole-request 400 is a bug here. The link backs off, the watermark stays.
+            if exc.status == 400:
+                log.error("the shore cannot read our command report (%s); it is kept", exc)
+            raise
+        self._link_ok()
+        answer = response.json()
+        if not isinstance(answer, dict) or not isinstance(answer.get("rejected"), list):
+            raise TransportError("the shore's command report answer is not the expected object")
+        for rejected in answer["rejected"]:
+            index = rejected.get("index") if isinstance(rejected, dict) else None
+            uid = (
+                commands[index].uid
+                if isinstance(index, int) and 0 <= index < len(commands)
+                else "?"
+            )
+            log.warning("shore rejected the report of command %s: %s", uid, rejected)
+        self._count("commands_reported", len(commands) - len(answer["rejected"]))
         self._set_counter(REPORT_WATERMARK, events[-1][0])
         return True
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 # ShoreConfig field ← environment variable (seconds).
 _PERIODS = (
@@ -25,7 +25,7 @@ class ShoreConfig:
     """Where the shore is and how often to talk to it (environment: see :meth:`from_env`)."""
 
     url: str
-    key: str
+    key: str = field(repr=False)  # a secret: never in a log line or a traceback
     outbox_path: str = ""  # empty: OUTBOX_NAME in the data folder (settings.DATA_DIR)
     ca_bundle: str | None = None
     timeout_s: float = 20.0

@@ -33,7 +33,7 @@ from django.db import DatabaseError, close_old_connections, connection
 from django.utils import timezone
 
 from sms.level2.inner import InnerCommandTable
-from sms.models import SmsMessage
+from sms.models import Outcome, SmsMessage
 from sms.modem import Modem, ModemError, PinRequired, ReceivedSms, SendUnconfirmed, receive_all
 from sms.services import (
     sms_handle_incoming,
@@ -189,7 +189,13 @@ class SmsLink:
             readings=self.readings() if self.readings else None,
         )
         seen = " (seen before)" if result.duplicate else ""
-        log.info("SMS in from %s: %r: %s%s", sms.number, sms.text, result.outcome, seen)
+        if result.outcome == Outcome.STRANGER:
+            # A stranger's text is someone else's business: the SMS log in the database keeps
+            # it for the operators; the bridge's log says only who and what became of it.
+            log.info("SMS in from %s: %s%s", sms.number, result.outcome, seen)
+            log.debug("SMS in from %s (stranger): %r", sms.number, sms.text)
+        else:
+            log.info("SMS in from %s: %r: %s%s", sms.number, sms.text, result.outcome, seen)
 
     def _send(self, message: SmsMessage) -> None:
         try:

@@ -58,7 +58,11 @@ def test_an_unknown_uid_becomes_a_reported_command_with_an_event_per_status(glid
     command.refresh_from_db()
     assert changed and command.reported and command.uid == uid and command.vessel == glider
     assert (command.status, command.result_detail) == ("done", "C&C: ACK (accepted)")
-    assert (command.source, command.created_by, command.created_at) == ("sms", "+61412345678", T0)
+    assert (command.source, command.created_by, command.created_at) == (
+        "sms",
+        "vessel:glider/+61412345678",
+        T0,
+    )
     assert (command.sent_at, command.acknowledged_at, command.finished_at) == (at(5), at(6), at(6))
     assert command.expires_at is None  # the shore never expires it
     assert history(command) == [
@@ -214,3 +218,61 @@ def test_an_operator_cannot_cancel_a_command_the_vessel_only_reports(glider):
         command_cancel(command=mirrored, actor="alice")
     mirrored.refresh_from_db()
     assert mirrored.status == "sent"
+
+
+# --- a vessel's key cannot forge the audit trail ---------------------------------------------
+
+
+def test_a_reported_command_never_passes_for_an_operators(glider_boat, glider):
+    """A vessel key files only SMS or system commands, under the vessel's own name."""
+    body = {
+        "commands": [
+            wire(uuid.uuid4(), source="admin", created_by="alice"),
+            wire(uuid.uuid4(), source="api"),
+            wire(uuid.uuid4(), source="system", created_by="alice"),
+            wire(uuid.uuid4(), created_by="x" * 150),
+        ]
+    }
+    answer = glider_boat.post(REPORT, body, format="json").json()
+    assert answer["accepted"] == 2
+    assert [r["index"] for r in answer["rejected"]] == [0, 1]
+    assert all(set(r["errors"]) == {"source"} for r in answer["rejected"])
+    by = sorted(Command.objects.values_list("source", "created_by"))
+    assert by[0] == ("sms", "vessel:glider/" + "x" * (150 - len("vessel:glider/")))
+    assert by[1] == ("system", "vessel:glider/alice")
+    assert not Command.objects.filter(source__in=["admin", "api"]).exists()
+
+
+def test_a_report_with_implausible_or_disordered_times_is_rejected_naming_the_field(
+    glider_boat, glider
+):
+    early, late = "1900-01-01T00:00:00Z", "1800-01-01T00:00:00Z"
+    future = (dt.datetime.now(dt.UTC) + dt.timedelta(days=1)).isoformat()
+    body = {
+        "commands": [
+            wire(uuid.uuid4(), created_at=early, finished_at=late),
+            wire(uuid.uuid4(), finished_at=future),
+            wire(uuid.uuid4(), sent_at=at(7)),  # sent after it was acknowledged (at 6)
+            wire(uuid.uuid4(), created_at=at(9)),  # created after it was sent
+            wire(uuid.uuid4()),
+        ]
+    }
+    answer = glider_boat.post(REPORT, body, format="json").json()
+    assert answer["accepted"] == 1
+    fields = [(r["index"], *r["errors"]) for r in answer["rejected"]]
+    assert fields == [
+        (0, "created_at"), (1, "finished_at"), (2, "acknowledged_at"), (3, "sent_at")
+    ]  # fmt: skip
+    assert "2018-01-01" in answer["rejected"][0]["errors"]["created_at"][0]
+    assert Command.objects.count() == 1
+
+
+def test_a_known_command_cannot_move_on_with_an_implausible_time(glider):
+    uid = uuid.uuid4()
+    report(glider, uid, "queued")
+    with pytest.raises(CommandError) as raised:
+        report(
+            glider, uid, "done", sent_at=at(5), finished_at=dt.datetime(1800, 1, 1, tzinfo=dt.UTC)
+        )
+    assert raised.value.field == "finished_at"
+    assert Command.objects.get(uid=uid).status == "queued"

@@ -106,6 +106,25 @@ def test_one_bad_entry_never_loses_the_good_ones(glider, glider_boat):
     assert set(SmsMessage.objects.values_list("origin_id", flat=True)) == {"a", "c"}
 
 
+def test_an_entry_stamped_by_a_reset_or_runaway_clock_is_rejected_by_index(glider, glider_boat):
+    """The fixes' plausibility rule: not before 2018, not more than FIX_MAX_FUTURE_S ahead."""
+    ahead = (dt.datetime.now(dt.UTC) + dt.timedelta(days=1)).isoformat()
+    upload = [
+        entry("a"),
+        entry("b", created_at="0001-01-01T00:00:00Z"),
+        entry("c", received_at="9999-12-31T00:00:00Z"),
+        entry("d", modem_timestamp="1999-01-01T00:00:00Z"),
+        entry("e", direction="out", status="sent", outcome="", sent_at=ahead),
+        entry("f"),
+    ]
+    body = glider_boat.post(SMS, upload, format="json").json()
+    assert (body["accepted"], body["duplicates"]) == (2, 0)
+    named = [(r["index"], *r["errors"]) for r in body["rejected"]]
+    assert named == [(1, "created_at"), (2, "received_at"), (3, "modem_timestamp"), (4, "sent_at")]
+    assert "2018-01-01" in body["rejected"][0]["errors"]["created_at"][0]
+    assert set(SmsMessage.objects.values_list("origin_id", flat=True)) == {"a", "f"}
+
+
 def test_an_upload_links_only_the_vessels_own_commands(glider, vessel_a, glider_boat):
     own = command_enqueue(vessel=glider, kind="fhead", params={"bearing": 230})
     other = command_enqueue(vessel=vessel_a, kind="hold", params={})

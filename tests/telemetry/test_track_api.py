@@ -15,6 +15,7 @@ import pytest
 from django.core.management import CommandError, call_command
 from rest_framework.test import APIClient
 
+from telemetry import services
 from telemetry import track as track_module
 from telemetry.models import Fix, SensorChannel, TrackBucket, TrackDirty
 from telemetry.services import fix_ingest, sensor_channel_save, track_overview_rebuild
@@ -454,3 +455,16 @@ def test_the_openapi_schema_validates_with_the_map_endpoints(db: None) -> None:
     schema = out.getvalue()
     for path in ("/track/", "/track/export/", "/series/", "/fixes/nearest/", "/api/v1/fleet/"):
         assert path in schema
+
+
+def test_a_long_backlog_is_rebuilt_a_day_at_a_time() -> None:
+    minute = 60
+    day = services.REBUILD_WINDOW_S
+    # A week of dirty minutes every 10 minutes: one run by the join rule, read a day at a time.
+    minutes = list(range(0, 7 * day, 10 * minute))
+    runs = services._runs(minutes)
+    assert runs[0][0] == 0 and runs[-1][1] == minutes[-1] + minute
+    assert all(hi - lo <= day for lo, hi in runs)
+    assert all(a[1] == b[0] for a, b in zip(runs, runs[1:], strict=False))  # no minute lost
+    # Far-apart minutes stay separate runs.
+    assert services._runs([0, 10 * day]) == [(0, minute), (10 * day, 10 * day + minute)]

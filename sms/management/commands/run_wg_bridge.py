@@ -11,6 +11,7 @@ import dataclasses
 import signal
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from django.core.management.base import BaseCommand, CommandError, CommandParser
@@ -36,9 +37,20 @@ class Command(BaseCommand):
         add("--sensor-ports", type=parse_ports, help="record=port,… (default: the layout's)")
         add("--power-command", help="run on a power-down notice (default: log only)")
         add("--upstream-url", dest="shore_url", help="shore server URL (WG_SHORE_URL)")
-        add("--upstream-key", dest="shore_key", help="the glider's vessel key there (WG_SHORE_KEY)")
+        add(
+            "--upstream-key",
+            dest="shore_key",
+            help="the glider's vessel key there; shown by ps to every user of the Pi, so prefer "
+            "WG_SHORE_KEY in the environment or --upstream-key-file",
+        )
+        add("--upstream-key-file", help="a file holding the vessel key (instead of --upstream-key)")
 
     def handle(self, *args: Any, **opts: Any) -> None:
+        if opts.get("upstream_key_file") and not opts.get("shore_key"):
+            try:
+                opts["shore_key"] = Path(opts["upstream_key_file"]).read_text().strip()
+            except OSError as exc:
+                raise CommandError(f"cannot read the key file: {exc}") from None
         names = (
             "vessel", "level2_port", "modem_port", "poll_period_s", "reply_window_s",
             "result_timeout_s", "sensor_host", "sensor_ports", "power_command", "shore_url",

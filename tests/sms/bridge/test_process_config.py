@@ -3,10 +3,13 @@ errors (STYLE.md §12)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from django.core.management import CommandError, call_command
 
 from sms.bridge.process import REPLY_MARGIN_S, BridgeConfig, parse_ports
+from sms.bridge.shore_config import ShoreConfig
 from sms.management.commands.run_wg_bridge import shore_loops
 from vessels.models import Vessel
 
@@ -72,3 +75,28 @@ def test_the_shore_link_runs_only_when_a_shore_is_configured(glider: Vessel) -> 
     config = BridgeConfig(**PORTS, shore_url="https://shore.example", shore_key="k")
     # The shore link (issue 11 §6) runs its loop in a thread of its own.
     assert [name for name, _loop in shore_loops(config, glider)] == ["shore"]
+
+
+def test_the_shore_key_never_shows_in_a_config_repr() -> None:
+    """A config's repr reaches logs and tracebacks: the vessel key stays out of it."""
+    bridge = BridgeConfig(**PORTS, shore_url="https://shore.example", shore_key="s3cret-key")
+    shore = ShoreConfig(url="https://shore.example", key="s3cret-key")
+    for config in (bridge, shore):
+        assert "s3cret-key" not in repr(config) and "shore.example" in repr(config)
+    assert (bridge.shore_key, shore.key) == ("s3cret-key", "s3cret-key")
+
+
+@pytest.mark.django_db
+def test_the_shore_key_may_come_from_a_file_kept_out_of_ps(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    for name in ("WG_SHORE_URL", "WG_SHORE_KEY"):
+        monkeypatch.delenv(name, raising=False)
+    key_file = tmp_path / "shore.key"
+    key_file.write_text("s3cret-key\n")
+    ports = {"level2_port": "loop://", "modem_port": "loop://"}
+    # The key read from the file but no URL: the pair is incomplete, so the file was read.
+    with pytest.raises(CommandError, match="URL and key go together"):
+        call_command("run_wg_bridge", vessel="glider", upstream_key_file=str(key_file), **ports)
+    with pytest.raises(CommandError, match="cannot read the key file"):
+        call_command("run_wg_bridge", vessel="glider", upstream_key_file="/nonexistent", **ports)

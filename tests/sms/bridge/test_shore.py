@@ -326,14 +326,16 @@ def test_a_command_texted_to_the_glider_reaches_the_shore_with_its_result_and_it
     settle(link)
     (local,) = Command.objects.filter(vessel=glider)
     uid = local.uid.hex
-    assert shore.sql(f"{SHORE_COMMAND} WHERE uid = ?", uid) == [("queued", "", 1, "sms", ANA)]
+    assert shore.sql(f"{SHORE_COMMAND} WHERE uid = ?", uid) == [
+        ("queued", "", 1, "sms", f"vessel:glider/{ANA}")
+    ]
     # The C&C takes it and ACKs (the Level 2 side, as in the tests above).
     source = DatabaseCommandSource(vessel=glider)
     assert source.take_next().ident == str(local.uid)
     source.result_without_command(0)
     settle(link)
     assert shore.sql(f"{SHORE_COMMAND} WHERE uid = ?", uid) == [
-        ("done", "C&C: ACK (accepted)", 1, "sms", ANA)
+        ("done", "C&C: ACK (accepted)", 1, "sms", f"vessel:glider/{ANA}")
     ]
     events = shore.sql(
         "SELECT e.to_status, e.actor FROM commands_commandevent e JOIN commands_command c"

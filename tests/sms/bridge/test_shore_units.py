@@ -161,7 +161,7 @@ class RecordingShore:
         return Response(200, {}, json.dumps(answer).encode())
 
     def get(self, path: str, etag: str | None = None) -> Response:
-        raise TransportError("not used here")
+        return Response(304)  # nothing new down: the polls leave the link up
 
     def close(self) -> None:
         pass
@@ -232,14 +232,24 @@ def test_the_command_report_goes_before_the_sms_log_that_names_it(recording_link
     assert sms_in["commands"] == [shore.reports[0][0]["uid"]]
 
 
-def test_a_shore_without_the_report_endpoint_holds_back_neither_the_report_nor_the_sms_log(
-    recording_link, glider
+@pytest.mark.parametrize("refused", [404, 405, 400])
+def test_a_report_the_shore_refuses_whole_is_kept_and_sent_once_it_is_taken(
+    recording_link, glider, refused
 ):
+    """A proxy's 404, a shore being upgraded, or a request it cannot read: no report is lost."""
     authorised_number_authorise(number=ANA, vessels=[glider], role="control", name="Ana")
     sms_handle_incoming(vessel=glider, number=ANA, text="#FHEAD 230", received_at=timezone.now())
-    link = recording_link(RecordingShore(refuse={REPORT_PATH: 404}))
+    shore = RecordingShore(refuse={REPORT_PATH: refused})
+    link = recording_link(shore)
+    assert link.do_one() is False
+    assert link.outbox.counter(REPORT_WATERMARK) == 0 and link.state.reachable is False
+    assert link.state.down_until > 0  # backing off
+    assert shore.uploads == []  # the SMS log waits behind the report that it names
+    del shore.refuse[REPORT_PATH]  # the shore is back, with the endpoint
     assert link.do_one_upload_sms() is True
-    assert link.outbox.counter(REPORT_WATERMARK) > 0 and link.state.reachable is not False
+    (((reported),),) = shore.reports
+    assert shore.uploads[0][0]["commands"] == [reported["uid"]]
+    assert link.outbox.counter(REPORT_WATERMARK) > 0
 
 
 def test_a_shore_that_is_down_gets_the_report_later(recording_link, glider):

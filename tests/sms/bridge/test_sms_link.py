@@ -4,6 +4,7 @@ the real service; issue 11 §1)."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 
 import pytest
@@ -66,3 +67,23 @@ def test_a_reply_with_no_answer_from_the_modem_is_marked_sent_unconfirmed_not_re
     assert not link.do_one_send()
     link.modem.close()
     assert len(modem.sent) == 1
+
+
+def test_a_strangers_text_stays_out_of_the_info_log_but_in_the_sms_log(
+    glider: Vessel, sim: tuple[SimulatedModem, ModemServer], caplog: pytest.LogCaptureFixture
+) -> None:
+    authorise(glider)
+    modem, server = sim
+    modem.inject("+61499999999", "my private words")
+    modem.inject(QUERY, "#FHEAD")
+    link = link_for(glider, server.url)
+    with caplog.at_level(logging.INFO, logger="sms.bridge.sms_link"):
+        both_in = SmsMessage.objects.filter(direction=Direction.IN)
+        assert wait_for(lambda: link.do_one_receive(0.2) is not None and both_in.count() == 2)
+    link.modem.close()
+    info = [r.getMessage() for r in caplog.records if r.levelno >= logging.INFO]
+    assert any("+61499999999" in m and "stranger" in m for m in info)
+    assert not any("my private words" in m for m in info)
+    assert any("#FHEAD" in m for m in info)  # an authorised number's text is still logged
+    stored = SmsMessage.objects.get(number="+61499999999")
+    assert (stored.text, stored.outcome) == ("my private words", "stranger")
