@@ -17,6 +17,7 @@ from vessels.kinds import MAVLINK, WAVE_GLIDER
 from vessels.missions import (
     ENDS,
     HOLD_MAX_S,
+    MISSION_MAX_ITEMS,
     RADIUS_MAX_M,
     RADIUS_MIN_M,
     SPEED_MAX_MPS,
@@ -43,7 +44,6 @@ ROVER_MODES: dict[str, int] = {
 
 # Wave Glider waypoint table indices (thesis Table 3: "at the specified index (1-254)").
 WG_INDEX_MIN, WG_INDEX_MAX = 1, 254
-MISSION_MAX_ITEMS = 500
 
 
 def _is_number(value: Any) -> bool:

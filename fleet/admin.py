@@ -84,7 +84,10 @@ class FleetMissionAdmin(MissionAdmin):
     actions = ["send_to_vessel"]
 
     def has_send_permission(self, request: HttpRequest) -> bool:
-        return request.user.has_perm("commands.add_command")
+        # As the API's send: queuing a command for a vessel needs the right to see vessels.
+        return request.user.has_perm("commands.add_command") and request.user.has_perm(
+            "vessels.view_vessel"
+        )
 
     def mission_problems(self, mission: Mission) -> list[str]:
         # The whole set of checks a send makes: the catalog's (vessel kind, autopilot size)

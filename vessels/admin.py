@@ -21,8 +21,14 @@ from django.utils.html import format_html, format_html_join
 
 from vessels import missionfiles
 from vessels.errors import MissionFileError
-from vessels.missions import DEFAULT_CRUISE_SPEED_MPS, format_distance, format_duration
+from vessels.missions import (
+    DEFAULT_CRUISE_SPEED_MPS,
+    MISSION_MAX_ITEMS,
+    format_distance,
+    format_duration,
+)
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
+from vessels.selectors import missions_visible_to
 from vessels.services import (
     mission_export,
     mission_import,
@@ -231,6 +237,12 @@ class MissionItemInline(admin.TabularInline):
     model = MissionItem
     extra = 3
     fields = ["seq", "lat", "lon", "hold_s", "radius_m", "speed_mps"]
+    # mission_save_items refuses more; the formset says so on the page instead of failing.
+    max_num = MISSION_MAX_ITEMS
+
+    def get_formset(self, request: HttpRequest, obj: Any = None, **kwargs: Any) -> Any:
+        return super().get_formset(request, obj, validate_max=True, **kwargs)
+
     # Narrow number boxes: the admin's default width puts the last columns off screen.
     formfield_overrides = {
         models.FloatField: {
@@ -240,10 +252,18 @@ class MissionItemInline(admin.TabularInline):
     }
 
 
+def _vessels_visible_to(user: Any) -> QuerySet[Vessel]:
+    # The rule of vessels.selectors.missions_visible_to: without the right to see vessels, a
+    # mission can only be a template, and no vessel's name or position reaches the page.
+    if not user.has_perm("vessels.view_vessel"):
+        return Vessel.objects.none()
+    return Vessel.objects.all()
+
+
 class MissionImportForm(forms.Form):
     file = forms.FileField(help_text="QGroundControl .plan, Mission Planner .waypoints or GeoJSON.")
     vessel = forms.ModelChoiceField(
-        Vessel.objects.all(), required=False, help_text="Empty: a template any vessel can run."
+        Vessel.objects.none(), required=False, help_text="Empty: a template any vessel can run."
     )
     name = forms.CharField(max_length=100, required=False, help_text="Empty: the file's own name.")
     skip_unsupported = forms.BooleanField(
@@ -251,6 +271,10 @@ class MissionImportForm(forms.Form):
         help_text="Import the rest when the file holds items a mission cannot (each one is "
         "listed); otherwise such a file is refused.",
     )
+
+    def __init__(self, *args: Any, user: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.fields["vessel"].queryset = _vessels_visible_to(user)
 
 
 @admin.register(Mission)
@@ -262,6 +286,20 @@ class MissionAdmin(admin.ModelAdmin):
     inlines = [MissionItemInline]
     fields = ["name", "vessel", "end", "home_lat", "home_lon", "notes", "route", "export_links"]
     readonly_fields = ["route", "export_links"]
+
+    def get_queryset(self, request: HttpRequest) -> QuerySet[Mission]:
+        return missions_visible_to(request.user)
+
+    def get_list_filter(self, request: HttpRequest) -> Any:
+        # The vessel filter lists every vessel's name.
+        if not request.user.has_perm("vessels.view_vessel"):
+            return [f for f in self.list_filter if f != "vessel"]
+        return self.list_filter
+
+    def formfield_for_foreignkey(self, db_field: Any, request: HttpRequest, **kwargs: Any) -> Any:
+        if db_field.name == "vessel":
+            kwargs["queryset"] = _vessels_visible_to(request.user)
+        return super().formfield_for_foreignkey(db_field, request, **kwargs)
 
     def get_urls(self) -> list[Any]:
         view = self.admin_site.admin_view
@@ -354,8 +392,20 @@ class MissionAdmin(admin.ModelAdmin):
     def import_view(self, request: HttpRequest) -> HttpResponse:
         if not self.has_add_permission(request):
             raise PermissionDenied
-        form = MissionImportForm(request.POST or None, request.FILES or None)
-        if request.method == "POST" and form.is_valid():
+        too_big = None
+        if request.method == "POST":
+            # Before request.FILES: the view would otherwise take the whole upload first.
+            try:
+                missionfiles.check_request_size(request.META.get("CONTENT_LENGTH"))
+            except MissionFileError as exc:
+                too_big = exc.message
+        if too_big:
+            # An unbound form (the body stays unread) showing the error on its file field.
+            form = MissionImportForm(user=request.user)
+            form.errors["file"] = form.error_class([too_big])
+        else:
+            form = MissionImportForm(request.POST or None, request.FILES or None, user=request.user)
+        if request.method == "POST" and not too_big and form.is_valid():
             upload = form.cleaned_data["file"]
             try:
                 missionfiles.check_size(upload.size)

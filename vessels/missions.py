@@ -26,6 +26,9 @@ HOLD_MAX_S = 32_767.0
 RADIUS_MIN_M, RADIUS_MAX_M = 0.5, 1000.0
 SPEED_MIN_MPS, SPEED_MAX_MPS = 0.1, 20.0
 ENDS = ("stop", "loop", "return_home")
+# The most items a mission may hold: the catalog sends no more (commands/catalog.py), so a
+# longer one is refused where it is saved or imported rather than stored and never sendable.
+MISSION_MAX_ITEMS = 500
 
 # The default for settings.MISSION_MAX_LEG_M: a leg longer than this is almost always a
 # mistyped coordinate (a sign, a swapped lat/lon), not a plan.

@@ -14,6 +14,7 @@ from django.utils import timezone
 from django.utils.text import slugify
 
 from vessels import missionfiles, missions
+from vessels.errors import MissionCheckError, MissionFileError
 from vessels.keys import PREFIX_SHOWN, generate_key, hash_key
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
 
@@ -136,8 +137,15 @@ def vessel_bump_commands_version(*, vessel_id: int) -> None:
 @transaction.atomic
 def mission_save_items(*, mission: Mission, items: Iterable[Mapping[str, Any]]) -> Mission:
     """Replace a mission's items with ``items`` (dicts of lat, lon and optional hold_s,
-    radius_m, speed_mps), numbered 1, 2, … in the order given."""
-    mission.items.all().delete()
+    radius_m, speed_mps), numbered 1, 2, … in the order given.
+
+    Raises MissionCheckError past missions.MISSION_MAX_ITEMS: such a mission could never be sent."""
+    items = list(items)
+    if len(items) > missions.MISSION_MAX_ITEMS:
+        raise MissionCheckError(
+            [f"the mission has {len(items)} waypoints; at most {missions.MISSION_MAX_ITEMS}"]
+        )
+    rows = []
     for seq, item in enumerate(items, start=1):
         row = MissionItem(
             mission=mission,
@@ -148,8 +156,12 @@ def mission_save_items(*, mission: Mission, items: Iterable[Mapping[str, Any]]) 
             radius_m=item.get("radius_m"),
             speed_mps=item.get("speed_mps"),
         )
-        row.full_clean()
-        row.save()
+        # The field validators only, no query per row: seq is unique by construction, the
+        # mission is the one given, and the lat/lon check constraint repeats the validators.
+        row.full_clean(exclude=["mission"], validate_unique=False, validate_constraints=False)
+        rows.append(row)
+    mission.items.all().delete()
+    MissionItem.objects.bulk_create(rows)
     Mission.objects.filter(pk=mission.pk).update(updated_at=timezone.now())
     return mission
 
@@ -210,6 +222,11 @@ def mission_import(
     parsed = missionfiles.load(
         content, format=format, filename=filename, skip_unsupported=skip_unsupported, name=name
     )
+    if len(parsed.items) > missions.MISSION_MAX_ITEMS:
+        raise MissionFileError(
+            f"the file has {len(parsed.items)} waypoints; a mission holds at most "
+            f"{missions.MISSION_MAX_ITEMS}"
+        )
     home = parsed.home or (None, None)
     mission = Mission(
         name=(parsed.name or _stem(filename) or "Imported mission")[:_NAME_MAX],

@@ -17,14 +17,22 @@ from rest_framework.views import APIView
 from commands.api.operator import CommandSerializer
 from commands.models import Command, Source
 from commands.services import mission_send
+from vessels.models import Vessel
 from vessels.permissions import CanViewVessels, ModelPermissions
-from vessels.selectors import missions_visible_to, vessel_by_slug
+from vessels.selectors import missions_visible_to
 
 
 class MissionSendSerializer(serializers.Serializer):
     vessel = serializers.SlugField(
         required=False, help_text="slug of the vessel to run it (default: the mission's own)"
     )
+
+    def validate_vessel(self, slug: str) -> Vessel:
+        # A field of the body, not the URL: an unknown slug is bad input (400), not a 404.
+        vessel = Vessel.objects.filter(slug=slug).first()
+        if vessel is None:
+            raise serializers.ValidationError(f"no vessel {slug!r}")
+        return vessel
 
 
 class MissionSendView(APIView):
@@ -39,10 +47,9 @@ class MissionSendView(APIView):
         mission = get_object_or_404(missions_visible_to(request.user), pk=pk)
         incoming = MissionSendSerializer(data=request.data)
         incoming.is_valid(raise_exception=True)
-        slug = incoming.validated_data.get("vessel")
         command = mission_send(
             mission=mission,
-            vessel=vessel_by_slug(slug) if slug else None,
+            vessel=incoming.validated_data.get("vessel"),
             source=Source.API,
             created_by=request.user.get_username(),
         )

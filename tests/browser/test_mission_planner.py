@@ -15,7 +15,7 @@ from tests.browser.support import js, log_in, shot, wait_for
 from tests.conftest import make_user
 from vessels.missions import legs
 from vessels.models import Mission, Vessel
-from vessels.services import mission_save_items
+from vessels.services import mission_save_items, vessel_create
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
 
@@ -174,3 +174,29 @@ def test_a_mission_planner_waypoints_file_is_imported_and_shown_on_the_map(
     mission = Mission.objects.get()
     assert [i.speed_mps for i in mission.items.order_by("seq")] == [2.5, None, None]
     assert (mission.home_lat, mission.home_lon) == (-31.979, 115.817)
+
+
+EVIL_NAME = """<img src=x onerror="document.title='pwned'">"""
+
+
+def test_a_vessel_name_with_markup_shows_as_text_in_the_planner_and_runs_nothing(
+    browser, live_server, planner_user, make_fix
+) -> None:
+    vessel = vessel_create(slug="evil", name=EVIL_NAME, kind="mavlink")
+    fix_ingest(vessel=vessel, records=[make_fix(lat=-31.9790, lon=115.8170)])
+    log_in(browser, live_server, planner_user)
+    open_planner(browser, live_server.url + "/admin/vessels/mission/add/")
+    title = browser.title
+    Select(browser.find_element(By.NAME, "vessel")).select_by_visible_text(EVIL_NAME)
+    js(
+        browser,
+        "var p = window.shoresidePlanner; p.render();"
+        "p.layer.eachLayer(function (l) { if (l.getTooltip()) { l.openTooltip(); } });",
+    )
+    wait_for(browser, lambda b: b.find_elements(By.CSS_SELECTOR, ".leaflet-tooltip"))
+    tooltip = browser.find_element(By.CSS_SELECTOR, ".leaflet-tooltip")
+    assert js(browser, "return document.querySelector('.leaflet-tooltip').textContent") == (
+        EVIL_NAME + " (last fix)"
+    )
+    assert not tooltip.find_elements(By.TAG_NAME, "img")
+    assert browser.title == title != "pwned"

@@ -7,6 +7,7 @@ from django.test import Client
 
 from commands.models import Command
 from commands.services import command_enqueue
+from tests.conftest import make_user
 from vessels.models import Mission, Vessel
 from vessels.services import mission_save, mission_save_items
 
@@ -94,3 +95,20 @@ def test_the_send_action_shows_why_a_mission_fails_its_checks(
     )
     assert "Far: leg 1 → 2 is 11.1 km, longer than the limit of 1.0 km" in response.content.decode()
     assert not Command.objects.exists()
+
+
+def test_the_send_action_needs_the_right_to_see_vessels_as_the_api_does(
+    client: Client, vessel_a: Vessel
+) -> None:
+    perms = ["vessels.view_mission", "vessels.change_mission", "commands.add_command"]
+    client.force_login(make_user("mo", perms))
+    template = mission_save(mission=Mission(name="Template"))
+    listing = client.get("/admin/vessels/mission/").content.decode()
+    assert "Template" in listing and "send_to_vessel" not in listing
+    client.post(
+        "/admin/vessels/mission/",
+        {"action": "send_to_vessel", "_selected_action": [template.pk]},
+    )
+    assert not Command.objects.exists()
+    client.force_login(make_user("vic", [*perms, "vessels.view_vessel"]))
+    assert "send_to_vessel" in client.get("/admin/vessels/mission/").content.decode()

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
+from django.core.files.uploadedfile import SimpleUploadedFile
 from django.test import Client
 
+from tests.conftest import make_user
 from vessels.keys import hash_key
+from vessels.missions import MISSION_MAX_ITEMS
 from vessels.models import Mission, Vessel, VesselKey
 from vessels.services import mission_save, mission_save_items
 
@@ -215,3 +219,93 @@ def test_saving_a_glider_mission_warns_that_gliders_cannot_run_it(
 def test_the_import_page_needs_the_add_permission(client: Client, readonly_user: object) -> None:
     client.force_login(readonly_user)
     assert client.get("/admin/vessels/mission/import/").status_code == 403
+
+
+# --- missions for a user who may not see vessels: templates only, as the API ---
+
+MISSION_ONLY_PERMS = [
+    "vessels.view_mission",
+    "vessels.add_mission",
+    "vessels.change_mission",
+    "vessels.view_missionitem",
+    "vessels.add_missionitem",
+    "vessels.change_missionitem",
+    "vessels.delete_missionitem",
+]
+
+
+@pytest.fixture
+def mission_only(client: Client, db: None) -> Client:
+    client.force_login(make_user("mo", MISSION_ONLY_PERMS))
+    return client
+
+
+def test_a_user_who_may_not_see_vessels_sees_only_template_missions_in_the_admin(
+    mission_only: Client, reported: Vessel
+) -> None:
+    secret = mission_save(mission=Mission(name="Secret run", vessel=reported))
+    template = mission_save(mission=Mission(name="Template run"))
+    listing = mission_only.get("/admin/vessels/mission/").content.decode()
+    assert "Template run" in listing
+    assert "Secret run" not in listing and reported.name not in listing
+    assert mission_only.get(f"/admin/vessels/mission/{secret.pk}/change/").status_code == 302
+    page = mission_only.get(f"/admin/vessels/mission/{template.pk}/change/").content.decode()
+    assert "Secret run" not in page
+    assert f'data-name="{reported.name}"' not in page and str(reported.last_fix["lat"]) not in page
+    assert f'<option value="{reported.pk}"' not in page
+
+
+def test_a_user_who_may_not_see_vessels_cannot_give_a_mission_a_vessel(
+    mission_only: Client, vessel_a: Vessel
+) -> None:
+    add = mission_only.get("/admin/vessels/mission/add/").content.decode()
+    assert 'data-name="SPAB"' not in add and f'<option value="{vessel_a.pk}"' not in add
+    data = mission_form(vessel_a, (-32.0, 115.0))
+    response = mission_only.post("/admin/vessels/mission/add/", data)
+    assert response.status_code == 200 and "Select a valid choice" in response.content.decode()
+    import_page = mission_only.get("/admin/vessels/mission/import/").content.decode()
+    assert "SPAB" not in import_page
+    with (FILES / "survey.plan").open("rb") as file:
+        response = mission_only.post(
+            "/admin/vessels/mission/import/",
+            {"file": file, "vessel": vessel_a.pk, "skip_unsupported": "on"},
+        )
+    assert "Select a valid choice" in response.content.decode()
+    assert not Mission.objects.exists()
+
+
+def test_the_admin_refuses_a_mission_past_the_item_limit_on_the_page(
+    admin_ui: Client, vessel_a: Vessel, settings: Any
+) -> None:
+    settings.DATA_UPLOAD_MAX_NUMBER_FIELDS = 10_000  # 4 fields a row; Django's default is 1,000
+    points = [(-32.0, 115.0 + n / 1000) for n in range(MISSION_MAX_ITEMS + 1)]
+    response = admin_ui.post("/admin/vessels/mission/add/", mission_form(vessel_a, *points))
+    assert response.status_code == 200
+    assert f"Please submit at most {MISSION_MAX_ITEMS} forms" in response.content.decode()
+    assert not Mission.objects.exists()
+
+
+def test_importing_a_file_past_the_item_limit_is_refused_on_the_form(admin_ui: Client) -> None:
+    rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t-31.98\t115.83\t0\t1"]
+    rows += [
+        f"{n}\t0\t3\t16\t0\t0\t0\t0\t-31.98\t{115.83 + n / 1e4:.6f}\t0\t1" for n in range(1, 601)
+    ]
+    file = SimpleUploadedFile("long.waypoints", ("\n".join(rows) + "\n").encode())
+    response = admin_ui.post("/admin/vessels/mission/import/", {"file": file})
+    assert response.status_code == 200
+    assert "the file has 600 waypoints; a mission holds at most 500" in response.content.decode()
+    assert not Mission.objects.exists()
+
+
+def test_an_import_declared_too_big_is_refused_on_the_form_before_it_is_read(
+    admin_ui: Client,
+) -> None:
+    with (FILES / "survey.plan").open("rb") as file:  # small: only the declared length refuses
+        response = admin_ui.post(
+            "/admin/vessels/mission/import/",
+            {"file": file, "skip_unsupported": "on"},
+            CONTENT_LENGTH=str(20 * 1024 * 1024),
+        )
+    assert response.status_code == 200
+    assert "the upload is 21.0 MB; a mission file is at most 5.2 MB" in response.content.decode()
+    assert not Mission.objects.exists()

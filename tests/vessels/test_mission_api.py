@@ -8,12 +8,16 @@ from typing import Any
 import pytest
 from django.contrib.auth.models import User
 from django.core.files.uploadedfile import SimpleUploadedFile
+from django.db import connection
+from django.test.utils import CaptureQueriesContext
 from rest_framework.test import APIClient
 
 from commands.models import Command
 from tests.conftest import OPERATOR_PERMS, make_user
 from tests.support import commands_url
 from vessels import geo, missionfiles
+from vessels.errors import MissionCheckError
+from vessels.missions import MISSION_MAX_ITEMS
 from vessels.models import Mission, Vessel
 from vessels.services import mission_save, mission_save_items
 
@@ -201,6 +205,51 @@ def test_an_import_without_a_file_or_of_garbage_is_a_400(planner: APIClient) -> 
     assert "not a QGroundControl plan file" in garbage.json()["detail"]["file"][0]
 
 
+def waypoints_file(count: int) -> bytes:
+    rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t-31.98\t115.83\t0\t1"]
+    for n in range(1, count + 1):
+        lon = 115.83 + n / 10_000
+        rows.append(f"{n}\t0\t3\t16\t0\t0\t0\t0\t-31.98\t{lon:.6f}\t0\t1")
+    return ("\n".join(rows) + "\n").encode()
+
+
+def test_a_mission_past_the_item_limit_is_refused_and_nothing_is_stored(
+    planner: APIClient,
+) -> None:
+    items = route(*range(0, 10 * (MISSION_MAX_ITEMS + 1), 10))
+    response = planner.post(MISSIONS, {"name": "Long", "items": items}, format="json")
+    assert response.status_code == 400
+    assert f"no more than {MISSION_MAX_ITEMS} elements" in str(response.json()["detail"]["items"])
+    assert not Mission.objects.exists()
+
+
+def test_a_waypoints_file_past_the_item_limit_is_refused_clearly(planner: APIClient) -> None:
+    content = waypoints_file(600)
+    response = planner.post(IMPORT, upload("long.waypoints", content), format="multipart")
+    assert response.status_code == 400
+    assert response.json()["detail"]["file"] == [
+        f"the file has 600 waypoints; a mission holds at most {MISSION_MAX_ITEMS}"
+    ]
+    assert not Mission.objects.exists()
+
+
+def test_saving_items_past_the_limit_keeps_the_old_ones(vessel_a: Vessel) -> None:
+    mission = saved(vessel_a, route(0, 300))
+    with pytest.raises(MissionCheckError, match=f"601 waypoints; at most {MISSION_MAX_ITEMS}"):
+        mission_save_items(mission=mission, items=route(*range(0, 6010, 10)))
+    assert mission.items.count() == 2
+
+
+def test_a_full_mission_is_written_in_a_few_statements_not_one_per_item(
+    vessel_a: Vessel,
+) -> None:
+    mission = saved(vessel_a, route(0, 300))
+    with CaptureQueriesContext(connection) as queries:
+        mission_save_items(mission=mission, items=route(*range(0, 10 * MISSION_MAX_ITEMS, 10)))
+    assert mission.items.count() == MISSION_MAX_ITEMS
+    assert len(queries) < 10
+
+
 # --- export ---
 
 
@@ -267,6 +316,16 @@ def test_a_template_is_sent_to_the_vessel_named(planner: APIClient, vessel_b: Ve
     assert sent.status_code == 201 and Command.objects.get().vessel == vessel_b
 
 
+def test_sending_to_an_unknown_vessel_is_a_400_naming_the_field(
+    planner: APIClient, vessel_a: Vessel
+) -> None:
+    template = saved(None, route(0, 300))
+    response = planner.post(send_url(template), {"vessel": "nope"}, format="json")
+    assert response.status_code == 400
+    assert response.json()["detail"] == {"vessel": ["no vessel 'nope'"]}
+    assert not Command.objects.exists()
+
+
 def test_a_mission_failing_its_checks_is_not_sent_and_says_why(
     planner: APIClient, vessel_a: Vessel, settings: Any
 ) -> None:
@@ -318,5 +377,25 @@ def test_the_openapi_schema_documents_the_mission_endpoints(planner: APIClient) 
 def test_an_oversized_file_is_refused_unread(planner: APIClient) -> None:
     big = b"QGC WPL 110\n" + b" " * missionfiles.MAX_FILE_BYTES
     response = planner.post(IMPORT, upload("big.waypoints", big), format="multipart")
-    assert response.status_code == 400
+    assert response.status_code == 400  # within the body's multipart allowance: read, then refused
     assert "a mission file is at most 5.2 MB" in response.json()["detail"]["file"][0]
+    bigger = big + b" " * missionfiles.MULTIPART_ALLOWANCE_BYTES
+    response = planner.post(IMPORT, upload("big.waypoints", bigger), format="multipart")
+    assert response.status_code == 413
+    assert response.json() == {
+        "error": "too_large",
+        "detail": "the upload is 5.3 MB; a mission file is at most 5.2 MB",
+    }
+
+
+def test_an_upload_declared_too_big_is_refused_before_its_body_is_read(
+    planner: APIClient,
+) -> None:
+    # The body is a small valid file: only the declared length can refuse it.
+    declared = str(missionfiles.MAX_FILE_BYTES * 2)
+    response = planner.post(
+        IMPORT, upload("matilda-bay.waypoints"), format="multipart", CONTENT_LENGTH=declared
+    )
+    assert response.status_code == 413
+    assert "a mission file is at most 5.2 MB" in response.json()["detail"]
+    assert not Mission.objects.exists()

@@ -18,7 +18,7 @@ from drf_spectacular.utils import (
     extend_schema,
     extend_schema_field,
 )
-from rest_framework import serializers, status, viewsets
+from rest_framework import exceptions, serializers, status, viewsets
 from rest_framework.decorators import action
 from rest_framework.exceptions import ValidationError
 from rest_framework.parsers import FormParser, MultiPartParser
@@ -28,6 +28,8 @@ from rest_framework.response import Response
 from vessels import missionfiles
 from vessels.api.boat import JsonOnly
 from vessels.api.parsers import JSONParser
+from vessels.errors import MissionFileError
+from vessels.missions import MISSION_MAX_ITEMS
 from vessels.models import Mission, MissionItem, Vessel
 from vessels.permissions import ModelPermissions
 from vessels.selectors import missions_visible_to
@@ -84,7 +86,7 @@ class MissionSerializer(serializers.ModelSerializer):
     vessel = VesselSlugField(
         slug_field="slug", allow_null=True, required=False, help_text="null: a template"
     )
-    items = MissionItemSerializer(many=True, required=False)
+    items = MissionItemSerializer(many=True, required=False, max_length=MISSION_MAX_ITEMS)
     legs = serializers.SerializerMethodField()
     total_m = serializers.SerializerMethodField(help_text="metres along every leg")
     total_s = serializers.SerializerMethodField(
@@ -189,6 +191,11 @@ _EXPORT_TYPES = {
 }
 
 
+class UploadTooLarge(exceptions.APIException):
+    status_code = status.HTTP_413_REQUEST_ENTITY_TOO_LARGE
+    default_code = "too_large"
+
+
 @extend_schema(tags=["operator"])
 class MissionViewSet(viewsets.ModelViewSet):
     """Missions (routes for a vessel, or templates) with their items in order, the legs between
@@ -202,6 +209,15 @@ class MissionViewSet(viewsets.ModelViewSet):
 
     def get_queryset(self):  # noqa: ANN201 (DRF hook)
         return missions_visible_to(self.request.user)
+
+    def initial(self, request: Request, *args: Any, **kwargs: Any) -> None:
+        # Before authentication: the session's CSRF check reads the multipart body.
+        if self.action == "import_file":
+            try:
+                missionfiles.check_request_size(request.META.get("CONTENT_LENGTH"))
+            except MissionFileError as exc:
+                raise UploadTooLarge(exc.message) from None
+        super().initial(request, *args, **kwargs)
 
     def perform_destroy(self, instance: Mission) -> None:
         mission_delete(mission=instance)

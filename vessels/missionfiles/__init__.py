@@ -17,6 +17,7 @@ __all__ = [
     "MAX_FILE_BYTES",
     "Item",
     "MissionFile",
+    "check_request_size",
     "check_size",
     "detect",
     "dump",
@@ -27,6 +28,8 @@ FORMATS = ("plan", "waypoints", "geojson")
 # The largest mission ArduPilot stores (724 items) is under 0.5 MB in any of these formats; a
 # file many times that is not a mission, and is refused before it is read into memory.
 MAX_FILE_BYTES = 5 * 1024 * 1024
+# An upload's body is the file plus its multipart headers and the form's few other fields.
+MULTIPART_ALLOWANCE_BYTES = 64 * 1024
 _BY_EXTENSION = {
     "plan": "plan",
     "waypoints": "waypoints",
@@ -73,6 +76,21 @@ def check_size(size: int) -> None:
     if size > MAX_FILE_BYTES:
         raise MissionFileError(
             f"the file is {size / 1e6:.1f} MB; a mission file is at most "
+            f"{MAX_FILE_BYTES / 1e6:.1f} MB"
+        )
+
+
+def check_request_size(content_length: str | None) -> None:
+    """Refuse an upload whose declared body (CONTENT_LENGTH) cannot hold a file within the
+    limit, before any of it is read: Django spools file parts to disk whatever
+    DATA_UPLOAD_MAX_MEMORY_SIZE says."""
+    try:
+        declared = int(content_length or 0)
+    except ValueError:
+        return  # no usable length: the file's own size is checked once it is read
+    if declared > MAX_FILE_BYTES + MULTIPART_ALLOWANCE_BYTES:
+        raise MissionFileError(
+            f"the upload is {declared / 1e6:.1f} MB; a mission file is at most "
             f"{MAX_FILE_BYTES / 1e6:.1f} MB"
         )
 

@@ -214,7 +214,7 @@
     }
     if (vessel && vessel.at) {
       L.circleMarker(vessel.at, { radius: 5, color: "#555", fillOpacity: 0.6, interactive: false })
-        .bindTooltip(vessel.name + " (last fix)").addTo(this.layer);
+        .bindTooltip(el("span", { text: vessel.name + " (last fix)" })).addTo(this.layer);
     }
     items.forEach(function (item, i) {
       var marker = L.marker([item.lat, item.lon], {
