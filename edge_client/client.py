@@ -28,7 +28,7 @@ from edge_client import systemd
 from edge_client.config import Config
 from edge_client.executor import Executor
 from edge_client.mavlink_link import MavlinkLink
-from edge_client.outbox import Outbox, settle_fix_batch
+from edge_client.outbox import Item, Outbox, settle_fix_batch
 from edge_client.transports.base import Transport, TransportError
 
 log = logging.getLogger(__name__)
@@ -40,6 +40,28 @@ MAX_OUTAGE_BACKOFF_S = 60.0
 # Ack answers that will never change (DESIGN §5): unknown/other vessel's command, illegal
 # transition (cancelled meanwhile), malformed.
 ACK_DROP_STATUSES = frozenset({400, 404, 409})
+
+
+def post_ack(transport: Transport, outbox: Outbox, item: Item) -> None:
+    """Send one queued ack and take it out of the outbox.
+
+    An ack the server will never take (ACK_DROP_STATUSES) is dropped and counted
+    (``dropped_acks``); any other transport error propagates and the ack stays queued.
+    The edge client and the glider's shore link both send their acks through here.
+    """
+    body = item.body
+    try:
+        transport.post_json(
+            ACK_PATH.format(uid=body["uid"]), {"status": body["status"], "detail": body["detail"]}
+        )
+    except TransportError as exc:
+        if not (exc.permanent and exc.status in ACK_DROP_STATUSES):
+            raise
+        log.warning(
+            "server will never take ack %s %s (%s); dropping it", body["uid"], body["status"], exc
+        )
+        outbox.bump("dropped_acks")
+    outbox.remove([item.id])
 
 
 class EdgeClient:
@@ -188,24 +210,7 @@ class EdgeClient:
 
     def flush_acks(self) -> None:
         for item in self.outbox.peek("ack", 50):
-            body = item.body
-            try:
-                self.transport.post_json(
-                    ACK_PATH.format(uid=body["uid"]),
-                    {"status": body["status"], "detail": body["detail"]},
-                )
-            except TransportError as exc:
-                if exc.permanent and exc.status in ACK_DROP_STATUSES:
-                    log.warning(
-                        "server will never take ack %s %s (%s); dropping it",
-                        body["uid"],
-                        body["status"],
-                        exc,
-                    )
-                    self.outbox.bump("dropped_acks")
-                else:
-                    raise
-            self.outbox.remove([item.id])
+            post_ack(self.transport, self.outbox, item)
 
     def flush_fixes(self) -> None:
         batch_size = self.config.telemetry.batch_size

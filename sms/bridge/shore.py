@@ -54,6 +54,7 @@ from commands.errors import CatalogError, CommandError
 from commands.lifecycle import FINAL, Status
 from commands.models import Command, CommandEvent, Source
 from commands.services import command_enqueue
+from edge_client.client import COMMANDS_PATH, TELEMETRY_PATH, post_ack
 from edge_client.outbox import Outbox, settle_fix_batch
 from edge_client.transports.base import Transport, TransportError
 from edge_client.transports.http import HttpTransport
@@ -68,9 +69,6 @@ log = logging.getLogger(__name__)
 # Replies whose send status is still to come: queued for the modem, or held for the C&C's answer.
 UNSETTLED = (SendStatus.PENDING, SendStatus.WAITING)
 
-TELEMETRY_PATH = "/api/v1/boat/telemetry/"
-COMMANDS_PATH = "/api/v1/boat/commands/"
-ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
 NUMBERS_PATH = "/api/v1/boat/numbers/"
 SMS_PATH = "/api/v1/boat/sms/"
 REPORT_PATH = "/api/v1/boat/commands/report/"
@@ -79,9 +77,6 @@ REPORT_MAX_BATCH = 200
 REPORT_DETAIL_MAX = 2000  # the longest result_detail the shore takes in a report
 # Report batches sent before an SMS upload; more backlog than that, and the SMS waits a round.
 REPORT_BEFORE_SMS_MAX = 10
-# The shore will never take these acks (unknown command, illegal transition, malformed):
-# the same rule as the edge client's.
-ACK_DROP_STATUSES = frozenset({400, 404, 409})
 CREATED_BY = "shore"  # a local command queued from the shore: created_by and event actor
 FIX_WATERMARK = "shore_fix_watermark"  # outbox counters: the last local Fix id settled
 SMS_WATERMARK = "shore_sms_watermark"  # the last local SmsMessage id uploaded
@@ -376,19 +371,8 @@ class ShoreLink:
         """Send the queued acks, oldest first; True if any left the outbox."""
         items = self.outbox.peek("ack", 50)
         for item in items:
-            body = item.body
-            try:
-                self.transport.post_json(
-                    ACK_PATH.format(uid=body["uid"]),
-                    {"status": body["status"], "detail": body["detail"]},
-                )
-            except TransportError as exc:
-                if not (exc.permanent and exc.status in ACK_DROP_STATUSES):
-                    raise
-                log.warning("shore refuses ack %s for good (%s)", body, exc)
-                self.outbox.bump("dropped_acks")
+            post_ack(self.transport, self.outbox, item)  # the edge client's own ack rule
             self._link_ok()
-            self.outbox.remove([item.id])
             self._count("acks_sent")
         return bool(items)
 
