@@ -425,6 +425,23 @@ def command_cancel(*, command: Command, actor: str, now: dt.datetime | None = No
     raise TransitionError(Status(command.status), Status.CANCELLED)
 
 
+def command_withdraw_queued(
+    *, command: Command, actor: str, detail: str, now: dt.datetime | None = None
+) -> bool:
+    """Cancel ``command`` only while it is still queued here; True if it was withdrawn.
+
+    For a relay that learns its upstream dropped a command (the glider's shore link): once the
+    command has been taken (sent) it is on its way and stays, unlike :func:`command_cancel`.
+    The conditional UPDATE races with the taker exactly as two polls do.
+    """
+    if command.status != Status.QUEUED:
+        return False
+    with transaction.atomic():
+        return _transition(
+            command, Status.CANCELLED, now=now or timezone.now(), actor=actor, detail=detail
+        )
+
+
 LEGACY_KINDS = ["move_to", "hold"]
 LEGACY_DELIVERY_NOTE = "delivered to a legacy SPAB client; the old protocol has no ack"
 

@@ -53,7 +53,7 @@ from django.utils.dateparse import parse_datetime
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import FINAL, Status
 from commands.models import Command, CommandEvent, Source
-from commands.services import command_enqueue
+from commands.services import command_enqueue, command_withdraw_queued
 from edge_client.client import COMMANDS_PATH, TELEMETRY_PATH, post_ack
 from edge_client.outbox import Outbox, settle_fix_batch
 from edge_client.transports.base import Transport, TransportError
@@ -294,10 +294,29 @@ class ShoreLink:
         if not isinstance(commands, list):
             raise TransportError("the shore's commands answer has no commands list")
         taken = sum(self._take(command) for command in commands if isinstance(command, dict))
+        self._withdraw_dropped({str(c.get("uid")) for c in commands if isinstance(c, dict)})
         self.commands_etag = response.etag
         if taken:
             log.info("%d command(s) from the shore queued", taken)
         return taken > 0
+
+    def _withdraw_dropped(self, listed: set[str]) -> None:
+        """Withdraw the shore's commands still queued here that the shore no longer lists.
+
+        The shore lists a command until the glider acks it, and the glider acks once the
+        command is handed to the C&C; so one still queued here that left the list was
+        cancelled, superseded or expired on the shore, and must not reach the C&C.
+        """
+        waiting = Command.objects.filter(
+            vessel=self.vessel, created_by=CREATED_BY, status=Status.QUEUED
+        )
+        for command in waiting:
+            if str(command.uid) in listed:
+                continue
+            if command_withdraw_queued(
+                command=command, actor=CREATED_BY, detail="dropped by the shore before it left"
+            ):
+                log.info("shore command %s withdrawn: the shore no longer lists it", command.uid)
 
     def _take(self, wire: dict[str, Any]) -> bool:
         """Queue one shore command here under its own uid; True if it was new here."""

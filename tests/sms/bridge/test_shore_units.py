@@ -10,6 +10,7 @@ import time
 import pytest
 from django.utils import timezone
 
+from commands.models import Command
 from commands.services import command_cancel, command_enqueue
 from edge_client.transports.base import Response, TransportError
 from sms.bridge.shore import CREATED_BY, REPORT_PATH, REPORT_WATERMARK, SMS_PATH, ShoreLink
@@ -257,3 +258,37 @@ def test_a_shore_that_is_down_gets_the_report_later(recording_link, glider):
     down = recording_link(RecordingShore(refuse={REPORT_PATH: 503}))
     assert down.do_one() is False
     assert down.state.reachable is False and down.outbox.counter(REPORT_WATERMARK) == 0
+
+
+class ListingShore(RecordingShore):
+    """A shore whose command poll lists ``open``: each answer a 200 with a new tag."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.open: list[dict] = []
+
+    def get(self, path: str, etag: str | None = None) -> Response:
+        tag = f'"{len(self.calls)}"'
+        self.calls.append(path)
+        return Response(200, {"etag": tag}, json.dumps({"commands": self.open}).encode())
+
+
+def test_a_shore_command_dropped_there_is_withdrawn_here_unless_already_taken(tmp_path, glider):
+    shore = ListingShore()
+    config = ShoreConfig(url="http://127.0.0.1:9", key="k", outbox_path=str(tmp_path / "o.db"))
+    link = ShoreLink(vessel=glider, config=config, transport=shore)
+    waiting, taken = "6f1c2d3e-0000-4000-8000-000000000001", "6f1c2d3e-0000-4000-8000-000000000002"
+    shore.open = [
+        {"uid": waiting, "kind": "light", "params": {"state": "on"}},
+        {"uid": taken, "kind": "light", "params": {"state": "off"}},
+    ]
+    try:
+        assert link.do_one_poll_commands() is True
+        mine = Command.objects.get(uid=taken)
+        Command.objects.filter(pk=mine.pk).update(status="sent")  # the C&C took it meanwhile
+        shore.open = []  # the operator cancelled both on the shore
+        link.do_one_poll_commands()
+        assert Command.objects.get(uid=waiting).status == "cancelled"  # never reaches the C&C
+        assert Command.objects.get(uid=taken).status == "sent"  # on its way: it stays
+    finally:
+        link.close()
