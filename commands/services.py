@@ -51,7 +51,13 @@ _UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
 
 
 def _transition(
-    command: Command, target: Status, *, now: dt.datetime, actor: str = "", detail: str = ""
+    command: Command,
+    target: Status,
+    *,
+    now: dt.datetime,
+    actor: str = "",
+    detail: str = "",
+    bump: bool = True,
 ) -> bool:
     """Move ``command`` from its current status to ``target`` if nobody else moved it first.
 
@@ -79,7 +85,7 @@ def _transition(
         actor=actor,
         detail=detail,
     )
-    if target in _LEAVES_BOAT_LIST:
+    if bump and target in _LEAVES_BOAT_LIST:
         vessel_bump_commands_version(vessel_id=command.vessel_id)
     return True
 
@@ -573,31 +579,14 @@ def _reported_path(
 def _advance_reported(
     command: Command, path: list[Status], *, stamps: dict[str, Any], detail: str, now: dt.datetime
 ) -> None:
-    """Move a reported command along ``path`` with the vessel's own times. Unlike
-    :func:`_transition` it never bumps commands_version: the boat poll never lists it."""
+    """Move a reported command along ``path`` with the vessel's own times. Unlike the other
+    transitions it never bumps commands_version: the boat poll never lists it."""
     for target in path:
-        current = Status(command.status)
-        check_transition(current, target)
-        changes: dict[str, Any] = {"status": target.value}
         stamp = _STAMP.get(target)
         at = (stamps.get(stamp) if stamp else None) or now
-        if stamp:
-            changes[stamp] = at
-        if target in FINAL:
-            changes["result_detail"] = detail
-        won = Command.objects.filter(pk=command.pk, status=current.value).update(**changes)
-        if won != 1:
-            raise TransitionError(current, target)  # a racing report moved it; it re-sends
-        for name, value in changes.items():
-            setattr(command, name, value)
-        CommandEvent.objects.create(
-            command=command,
-            at=at,
-            from_status=current.value,
-            to_status=target.value,
-            actor=REPORTED_ACTOR,
-            detail=detail if target in FINAL else "reported by the vessel",
-        )
+        note = detail if target in FINAL else "reported by the vessel"
+        if not _transition(command, target, now=at, actor=REPORTED_ACTOR, detail=note, bump=False):
+            raise TransitionError(Status(command.status), target)  # a racing report; it re-sends
 
 
 def _report_rank(status: Status) -> int:
