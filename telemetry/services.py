@@ -260,8 +260,9 @@ def _advance_last_fix(vessel: Vessel, new: list[FixData], now: dt.datetime) -> N
     )
 
 
-def fix_summary(fix: FixData) -> dict[str, Any]:
-    """The denormalised copy of a fix kept on Vessel.last_fix."""
+def fix_summary(fix: FixData | Fix) -> dict[str, Any]:
+    """A fix as the boat API takes it (DESIGN §5): the copy kept on Vessel.last_fix, and what
+    the glider's shore link posts to ``boat/telemetry/``."""
     summary: dict[str, Any] = {
         "time": fix.recorded_at.isoformat(),
         "lat": fix.lat,

@@ -62,6 +62,7 @@ from sms.bridge.shore_config import ShoreConfig
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services import authorised_numbers_replace
 from telemetry.models import Fix
+from telemetry.services import fix_summary
 from vessels.models import Vessel
 
 log = logging.getLogger(__name__)
@@ -245,7 +246,7 @@ class ShoreLink:
         ids = [fix.pk for fix in fixes]
         try:
             response = self.transport.post_json(
-                TELEMETRY_PATH, {"fixes": [fix_wire(f) for f in fixes]}
+                TELEMETRY_PATH, {"fixes": [fix_summary(f) for f in fixes]}
             )
         except TransportError as exc:
             if exc.status != 400:
@@ -269,7 +270,7 @@ class ShoreLink:
     def _push_one_by_one(self, fixes: list[Fix]) -> bool:
         for fix in fixes:
             try:
-                response = self.transport.post_json(TELEMETRY_PATH, {"fixes": [fix_wire(fix)]})
+                response = self.transport.post_json(TELEMETRY_PATH, {"fixes": [fix_summary(fix)]})
             except TransportError as exc:
                 if exc.status != 400:
                     raise
@@ -506,18 +507,6 @@ def _when(value: Any) -> dt.datetime | None:
 
 def _iso(value: dt.datetime | None) -> str | None:
     return value.isoformat() if value is not None else None
-
-
-def fix_wire(fix: Fix) -> dict[str, Any]:
-    """A local fix as ``POST boat/telemetry/`` takes it (DESIGN §5)."""
-    wire: dict[str, Any] = {"time": fix.recorded_at.isoformat(), "lat": fix.lat, "lon": fix.lon}
-    for name in ("heading_deg", "speed_mps", "battery_v"):
-        value = getattr(fix, name)
-        if value is not None:
-            wire[name] = value
-    if fix.readings:
-        wire["readings"] = fix.readings
-    return wire
 
 
 def command_report_wire(command: Command) -> dict[str, Any]:
