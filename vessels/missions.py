@@ -26,6 +26,8 @@ HOLD_MAX_S = 32_767.0
 RADIUS_MIN_M, RADIUS_MAX_M = 0.5, 1000.0
 SPEED_MIN_MPS, SPEED_MAX_MPS = 0.1, 20.0
 ENDS = ("stop", "loop", "return_home")
+# A mission item's fields, in the catalog's order (commands/catalog.py MISSION_ITEM_PARAMS).
+ITEM_FIELDS = ("lat", "lon", "hold_s", "radius_m", "speed_mps")
 # The most items a mission may hold: the catalog sends no more (commands/catalog.py), so a
 # longer one is refused where it is saved or imported rather than stored and never sendable.
 MISSION_MAX_ITEMS = 500

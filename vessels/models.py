@@ -12,6 +12,7 @@ from vessels.kinds import MAVLINK, WAVE_GLIDER
 from vessels.missions import (
     DEFAULT_CRUISE_SPEED_MPS,
     HOLD_MAX_S,
+    ITEM_FIELDS,
     RADIUS_MAX_M,
     RADIUS_MIN_M,
     SPEED_MAX_MPS,
@@ -195,10 +196,4 @@ class MissionItem(models.Model):
         return f"{self.seq}: {self.lat:.5f}, {self.lon:.5f}"
 
     def as_dict(self) -> dict[str, Any]:
-        return {
-            "lat": self.lat,
-            "lon": self.lon,
-            "hold_s": self.hold_s,
-            "radius_m": self.radius_m,
-            "speed_mps": self.speed_mps,
-        }
+        return {name: getattr(self, name) for name in ITEM_FIELDS}

@@ -414,3 +414,9 @@ def test_a_mission_item_speed_is_optional_and_ranged() -> None:
     )
     with pytest.raises(CatalogError, match="speed_mps must be between 0.1 and 20"):
         validate("mission", {"items": [{**item, "speed_mps": 0}]})
+
+
+def test_a_mission_items_fields_are_the_catalogs() -> None:
+    from vessels.missions import ITEM_FIELDS
+
+    assert tuple(p.name for p in catalog.MISSION_ITEM_PARAMS) == ITEM_FIELDS

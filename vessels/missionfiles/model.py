@@ -17,6 +17,7 @@ from vessels.errors import MissionFileError
 from vessels.missions import (
     ENDS,
     HOLD_MAX_S,
+    ITEM_FIELDS,
     RADIUS_MAX_M,
     RADIUS_MIN_M,
     SPEED_MAX_MPS,
@@ -33,13 +34,7 @@ class Item:
     speed_mps: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        return {
-            "lat": self.lat,
-            "lon": self.lon,
-            "hold_s": self.hold_s,
-            "radius_m": self.radius_m,
-            "speed_mps": self.speed_mps,
-        }
+        return {name: getattr(self, name) for name in ITEM_FIELDS}
 
 
 @dataclass(frozen=True)
