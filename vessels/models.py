@@ -142,7 +142,9 @@ class Mission(models.Model):
 
     def clean(self) -> None:
         if (self.home_lat is None) != (self.home_lon is None):
-            raise ValidationError("Give both home latitude and longitude, or neither.")
+            raise ValidationError(
+                {"home_lat": "Give both home latitude and longitude, or neither."}
+            )
 
     @property
     def home(self) -> tuple[float, float] | None:

@@ -179,6 +179,21 @@ def mission_save(*, mission: Mission) -> Mission:
     return mission
 
 
+@transaction.atomic
+def mission_write(
+    *, mission: Mission, fields: Mapping[str, Any], items: Iterable[Mapping[str, Any]] | None
+) -> Mission:
+    """Create or update ``mission`` with ``fields``; ``items`` replace its items (None keeps
+    them: a PATCH without items). The model's checks (both home halves or neither) see the
+    mission as it will be, whichever half a partial update gives."""
+    for name, value in fields.items():
+        setattr(mission, name, value)
+    mission = mission_save(mission=mission)
+    if items is not None:
+        mission_save_items(mission=mission, items=items)
+    return mission
+
+
 def mission_delete(*, mission: Mission) -> None:
     """Delete a mission and its items; commands already sent keep their own copy of them."""
     mission.delete()

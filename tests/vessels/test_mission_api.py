@@ -120,6 +120,20 @@ def test_bad_items_and_half_a_home_are_refused(planner: APIClient) -> None:
     assert Mission.objects.count() == 0
 
 
+def test_a_patch_is_checked_against_the_home_half_it_leaves(
+    planner: APIClient, vessel_a: Vessel
+) -> None:
+    mission = saved(vessel_a, route(0, 300))
+    half = planner.patch(detail(mission), {"home_lat": -32}, format="json")
+    assert half.status_code == 400 and "home_lat" in half.json()["detail"]
+    both = {"home_lat": -32.0, "home_lon": 115.8}
+    assert planner.patch(detail(mission), both, format="json").status_code == 200
+    moved = planner.patch(detail(mission), {"home_lon": 115.9}, format="json")
+    assert moved.status_code == 200
+    mission.refresh_from_db()
+    assert (mission.home_lat, mission.home_lon) == (-32.0, 115.9)
+
+
 def test_a_planner_deletes_a_mission(planner: APIClient, vessel_a: Vessel) -> None:
     mission = saved(vessel_a, route(0, 100))
     assert planner.delete(detail(mission)).status_code == 204

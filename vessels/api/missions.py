@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from django.db import transaction
 from django.http import HttpResponse
 from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import (
@@ -37,9 +36,8 @@ from vessels.services import (
     mission_delete,
     mission_export,
     mission_import,
-    mission_save,
-    mission_save_items,
     mission_summary,
+    mission_write,
 )
 
 
@@ -128,33 +126,13 @@ class MissionSerializer(serializers.ModelSerializer):
     def get_total_s(self, mission: Mission) -> float:
         return self._summary(mission).total_s
 
-    def validate(self, attrs: dict[str, Any]) -> dict[str, Any]:
-        home = [attrs.get("home_lat", ...), attrs.get("home_lon", ...)]
-        if self.instance is not None:  # a PATCH may give one half; the other stays
-            home = [
-                self.instance.home_lat if home[0] is ... else home[0],
-                self.instance.home_lon if home[1] is ... else home[1],
-            ]
-        home = [None if h is ... else h for h in home]
-        if (home[0] is None) != (home[1] is None):
-            raise ValidationError({"home_lat": ["give both home_lat and home_lon, or neither"]})
-        return attrs
-
-    @transaction.atomic
     def create(self, validated_data: dict[str, Any]) -> Mission:
         items = validated_data.pop("items", [])
-        mission = mission_save(mission=Mission(**validated_data))
-        mission_save_items(mission=mission, items=items)
-        return mission
+        return mission_write(mission=Mission(), fields=validated_data, items=items)
 
-    @transaction.atomic
     def update(self, instance: Mission, validated_data: dict[str, Any]) -> Mission:
         items = validated_data.pop("items", None)
-        for name, value in validated_data.items():
-            setattr(instance, name, value)
-        mission = mission_save(mission=instance)
-        if items is not None:  # a PATCH without items keeps them
-            mission_save_items(mission=mission, items=items)
+        mission = mission_write(mission=instance, fields=validated_data, items=items)
         return Mission.objects.prefetch_related("items").get(pk=mission.pk)
 
 
