@@ -428,6 +428,9 @@ class MissionAdmin(admin.ModelAdmin):
                 messages.success(request, f"Imported {mission.name}: {count} waypoint(s).")
                 for item in skipped:
                     messages.warning(request, f"Skipped {item}")
+                # Kept (it may be fixed on the page), but said at once, as a save says it.
+                for problem in self.mission_problems(mission):
+                    messages.warning(request, f"Imported, but it cannot be sent yet: {problem}.")
                 return redirect("admin:vessels_mission_change", mission.pk)
         context = {
             **self.admin_site.each_context(request),

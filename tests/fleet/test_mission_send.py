@@ -7,7 +7,9 @@ from __future__ import annotations
 import json
 
 import pytest
+from django.core.files.uploadedfile import SimpleUploadedFile
 from django.test import Client
+from rest_framework.test import APIClient
 
 from commands.models import Command
 from tests.conftest import make_user
@@ -117,3 +119,60 @@ def test_the_review_refuses_what_is_not_a_route(admin_ui: Client, client: Client
     )
     client.force_login(make_user("nobody", []))
     assert review(client, {"rows": []}).status_code == 403
+
+
+def api_for(user_perms: list[str]) -> APIClient:
+    client = APIClient()
+    client.force_authenticate(make_user("api-carol", user_perms))
+    return client
+
+
+API_PERMS = [
+    "vessels.view_vessel",
+    "vessels.view_mission",
+    "vessels.add_mission",
+    "vessels.change_mission",
+    "commands.add_command",
+]
+
+
+def test_an_api_send_naming_an_older_version_is_refused(reported: Vessel) -> None:
+    api = api_for(API_PERMS)
+    mission = five_waypoints(reported)
+    seen = api.get(f"/api/v1/missions/{mission.pk}/").json()["updated_at"]
+    api.patch(f"/api/v1/missions/{mission.pk}/", {"items": mission.item_dicts()[:4]}, format="json")
+    stale = api.post(f"/api/v1/missions/{mission.pk}/send/", {"updated_at": seen}, format="json")
+    assert stale.status_code == 400
+    assert "not sent: the mission was saved at" in stale.json()["detail"]["updated_at"][0]
+    assert not Command.objects.exists()
+    now = api.get(f"/api/v1/missions/{mission.pk}/").json()["updated_at"]
+    sent = api.post(f"/api/v1/missions/{mission.pk}/send/", {"updated_at": now}, format="json")
+    assert sent.status_code == 201 and len(Command.objects.get().params["items"]) == 4
+
+
+LONG_LEG = b"""QGC WPL 110
+0\t1\t0\t16\t0\t0\t0\t0\t-31.979000\t115.817000\t0.000000\t1
+1\t0\t3\t16\t0\t0\t0\t0\t-31.980000\t115.820000\t0.000000\t1
+2\t0\t3\t16\t0\t0\t0\t0\t-31.980000\t117.020000\t0.000000\t1
+"""
+
+
+def test_importing_a_file_with_an_over_long_leg_says_so(
+    admin_ui: Client, vessel_a: Vessel, settings
+) -> None:
+    settings.MISSION_MAX_LEG_M = 50_000
+    api = api_for(API_PERMS)
+    answer = api.post(
+        "/api/v1/missions/import/",
+        {"file": SimpleUploadedFile("far.waypoints", LONG_LEG)},
+        format="multipart",
+    )
+    assert answer.status_code == 201
+    [problem] = answer.json()["problems"]
+    assert problem.startswith("leg 1 → 2 is 113.2 km, longer than the limit of 50.0 km")
+    page = admin_ui.post(
+        "/admin/vessels/mission/import/",
+        {"file": SimpleUploadedFile("far.waypoints", LONG_LEG), "vessel": vessel_a.pk},
+        follow=True,
+    ).content.decode()
+    assert f"Imported, but it cannot be sent yet: {problem}." in page
