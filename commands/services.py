@@ -139,6 +139,9 @@ def mission_problems(*, mission: Mission, vessel: Vessel | None = None) -> list[
     return _mission_route_problems(valid.params)
 
 
+_UNCONFIRMED = object()  # mission_send without a confirmed route: the API, the list's action
+
+
 def mission_send(
     *,
     mission: Mission,
@@ -146,16 +149,29 @@ def mission_send(
     source: str = Source.API,
     created_by: str = "",
     now: dt.datetime | None = None,
+    confirmed: Any = _UNCONFIRMED,
 ) -> Command:
     """Queue ``mission`` as a `mission` command for ``vessel`` (default: the mission's own).
-    Checked like every command (catalog, mission checks); raises CommandError."""
+    Checked like every command (catalog, mission checks); raises CommandError.
+
+    ``confirmed``, the route the operator confirmed (``{"end", "items"}``, as the planner
+    showed it), must be the saved one, or nothing is sent: an unsaved edit on screen (or
+    someone else's save since) never goes out as the saved route behind the operator's back."""
     vessel = vessel or mission.vessel
     if vessel is None:
         raise CommandError("a template has no vessel; copy it to one.", field="vessel")
+    params = mission.as_params()
+    if confirmed is not _UNCONFIRMED:
+        differs = missions.mismatch(params["items"], params["end"], shown=confirmed)
+        if differs:
+            raise CommandError(
+                f"not sent: the mission on screen is not the one saved ({differs}); save it "
+                "(or reload the page) and send again"
+            )
     return command_enqueue(
         vessel=vessel,
         kind="mission",
-        params=mission.as_params(),
+        params=params,
         source=source,
         created_by=created_by,
         now=now,

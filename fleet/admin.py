@@ -6,10 +6,15 @@ action; the apps' own admins stay within their app and never import the apps abo
 
 from __future__ import annotations
 
+import json
+from typing import Any
+
 from django.contrib import admin, messages
+from django.core.exceptions import PermissionDenied
 from django.db.models import QuerySet
-from django.http import HttpRequest
-from django.urls import reverse
+from django.http import Http404, HttpRequest, HttpResponse, HttpResponseNotAllowed
+from django.shortcuts import redirect
+from django.urls import path, reverse
 from django.utils.html import format_html, format_html_join
 
 from commands.admin import CommandAdmin
@@ -18,8 +23,10 @@ from commands.models import Command, Source
 from commands.services import mission_problems, mission_send
 from sms.models import SmsMessage
 from telemetry.models import Fix
+from vessels import missions
 from vessels.admin import MissionAdmin, VesselAdmin
 from vessels.models import Mission, Vessel
+from vessels.services import mission_review
 
 RECENT_ROWS = 15
 
@@ -93,6 +100,60 @@ class FleetMissionAdmin(MissionAdmin):
         # The whole set of checks a send makes: the catalog's (vessel kind, autopilot size)
         # and the route's; vessels.admin alone knows only the route's.
         return mission_problems(mission=mission)
+
+    def get_urls(self) -> list[Any]:
+        send = self.admin_site.admin_view(self.send_view)
+        return [path("<int:pk>/send/", send, name="vessels_mission_send"), *super().get_urls()]
+
+    def change_view(
+        self,
+        request: HttpRequest,
+        object_id: str,
+        form_url: str = "",
+        extra_context: dict[str, Any] | None = None,
+    ) -> HttpResponse:
+        # The Send button's confirmation, from the saved mission: the page refuses to send
+        # while the form differs from it, and send_view checks the same on the server.
+        mission = self.get_object(request, object_id)
+        extra = dict(extra_context or {})
+        if mission is not None and mission.vessel and self.has_send_permission(request):
+            items = mission.item_dicts()
+            fix = mission.vessel.last_fix or {}
+            extra["send_confirmation"] = missions.send_confirmation(
+                mission_review(mission=mission),
+                items=items,
+                end=mission.end,
+                vessel_name=mission.vessel.name,
+                last_fix=(fix["lat"], fix["lon"]) if "lat" in fix else None,
+            )
+        return super().change_view(request, object_id, form_url, extra)
+
+    def send_view(self, request: HttpRequest, pk: int) -> HttpResponse:
+        """The mission page's Send: queues the mission only if the route the operator
+        confirmed (``confirmed``, JSON, filled in by planner.js) is the one saved."""
+        if request.method != "POST":
+            return HttpResponseNotAllowed(["POST"])
+        if not self.has_send_permission(request):
+            raise PermissionDenied
+        mission = self.get_object(request, str(pk))
+        if mission is None:
+            raise Http404
+        try:
+            confirmed = json.loads(request.POST.get("confirmed") or "null")
+        except ValueError:
+            confirmed = None
+        try:
+            command = mission_send(
+                mission=mission,
+                source=Source.ADMIN,
+                created_by=request.user.get_username(),
+                confirmed=confirmed,
+            )
+        except CommandError as exc:
+            messages.error(request, f"{mission}: {exc.message}")
+        else:
+            messages.success(request, f"{mission}: queued as command {command.uid}.")
+        return redirect("admin:vessels_mission_change", mission.pk)
 
     @admin.action(description="Send selected missions to their vessel", permissions=["send"])
     def send_to_vessel(self, request: HttpRequest, queryset: QuerySet[Mission]) -> None:

@@ -5,6 +5,7 @@ fleet.admin adds them where the admin site is assembled."""
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 from django import forms
@@ -12,7 +13,7 @@ from django.contrib import admin, messages
 from django.core.exceptions import PermissionDenied
 from django.db import models
 from django.db.models import QuerySet
-from django.http import Http404, HttpRequest, HttpResponse
+from django.http import Http404, HttpRequest, HttpResponse, JsonResponse
 from django.shortcuts import redirect
 from django.template.response import TemplateResponse
 from django.urls import path, reverse
@@ -23,9 +24,10 @@ from vessels import missionfiles
 from vessels.errors import MissionFileError
 from vessels.missions import (
     DEFAULT_CRUISE_SPEED_MPS,
+    ENDS,
+    ITEM_FIELDS,
     MISSION_MAX_ITEMS,
-    format_distance,
-    format_duration,
+    item_problems,
 )
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
 from vessels.selectors import missions_visible_to
@@ -33,9 +35,9 @@ from vessels.services import (
     mission_export,
     mission_import,
     mission_problems,
+    mission_review,
     mission_save,
     mission_save_items,
-    mission_summary,
     vessel_key_issue,
     vessel_key_revoke,
     vessel_save,
@@ -305,6 +307,7 @@ class MissionAdmin(admin.ModelAdmin):
         view = self.admin_site.admin_view
         return [
             path("import/", view(self.import_view), name="vessels_mission_import"),
+            path("review/", view(self.review_view), name="vessels_mission_review"),
             path(
                 "<int:pk>/export/<str:format>/",
                 view(self.export_view),
@@ -321,34 +324,35 @@ class MissionAdmin(admin.ModelAdmin):
     def route(self, mission: Mission) -> str:
         if mission.pk is None:
             return "–"
-        plan = mission_summary(mission=mission)
+        # The planner shows the same review (ReviewView), so the two never disagree.
+        review = mission_review(mission=mission)
         speed = mission.vessel.cruise_speed_mps if mission.vessel else DEFAULT_CRUISE_SPEED_MPS
         rows = format_html_join(
             "",
-            "<tr><td>{} → {}</td><td>{}</td><td>{}°</td><td>{}</td><td>{}</td></tr>",
+            '<tr class="{}"><td>{} → {}</td><td>{}</td><td>{}°</td><td>{}</td><td>{}</td>'
+            "<td>{}</td></tr>",
             (
                 (
-                    leg.start,
-                    leg.to,
-                    format_distance(leg.distance_m),
-                    f"{leg.bearing_deg:.0f}",
-                    f"{leg.speed_mps:g} m/s",
-                    format_duration(leg.time_s),
+                    "leg-problem" if leg["problem"] else "",
+                    leg["from"],
+                    leg["to"],
+                    leg["distance"],
+                    f"{leg['bearing_deg']:.0f}",
+                    f"{leg['speed_mps']:g} m/s",
+                    leg["time"],
+                    leg["problem"] or "",
                 )
-                for leg in plan.legs
+                for leg in review["legs"]
             ),
         )
         return format_html(
             '<table id="mission-route"><tr><th>leg</th><th>distance</th><th>bearing</th>'
-            "<th>speed</th><th>time</th></tr>{}</table>"
-            "<p><b>Total: {}, {}</b> ({} of holds; at a cruise speed of {} m/s unless an item "
-            "sets its own{})</p>",
+            "<th>speed</th><th>time</th><th></th></tr>{}</table>"
+            '<p><b id="mission-route-total">{}</b> (at a cruise speed of {} m/s unless an item '
+            "sets its own)</p>",
             rows,
-            format_distance(plan.total_m),
-            format_duration(plan.total_s),
-            format_duration(plan.hold_s),
+            review["total"],
             f"{speed:g}",
-            "; one lap" if mission.end == "loop" else "",
         )
 
     @admin.display(description="export")
@@ -424,6 +428,9 @@ class MissionAdmin(admin.ModelAdmin):
                 messages.success(request, f"Imported {mission.name}: {count} waypoint(s).")
                 for item in skipped:
                     messages.warning(request, f"Skipped {item}")
+                # Kept (it may be fixed on the page), but said at once, as a save says it.
+                for problem in self.mission_problems(mission):
+                    messages.warning(request, f"Imported, but it cannot be sent yet: {problem}.")
                 return redirect("admin:vessels_mission_change", mission.pk)
         context = {
             **self.admin_site.each_context(request),
@@ -432,6 +439,21 @@ class MissionAdmin(admin.ModelAdmin):
             "form": form,
         }
         return TemplateResponse(request, "admin/vessels/mission/import.html", context)
+
+    def review_view(self, request: HttpRequest) -> HttpResponse:
+        """The planner's figures and checks for the route on screen (not saved): POST
+        ``{"rows": [{lat, lon, hold_s, radius_m, speed_mps}], "end", "home", "vessel"}``,
+        answered with vessels.missions.review. Writes nothing."""
+        if request.method != "POST":
+            return JsonResponse({"detail": "POST the route"}, status=405)
+        if not self.has_view_permission(request):
+            raise PermissionDenied
+        try:
+            route = _planner_route(json.loads(request.body), user=request.user)
+        except (ValueError, TypeError) as exc:
+            return JsonResponse({"detail": f"not a route: {exc}"}, status=400)
+        review = mission_review(mission=Mission(end=route["end"]), **route)
+        return JsonResponse(review)
 
     def export_view(self, request: HttpRequest, pk: int, format: str) -> HttpResponse:
         mission = self.get_object(request, str(pk))
@@ -443,6 +465,35 @@ class MissionAdmin(admin.ModelAdmin):
         response = HttpResponse(content, content_type=content_type)
         response["Content-Disposition"] = f'attachment; filename="{filename}"'
         return response
+
+
+def _planner_route(data: Any, *, user: Any) -> dict[str, Any]:
+    """The planner's route from its JSON, for mission_review; ValueError/TypeError if not one.
+    A value that is not a number stays as it is: missions.item_problems names it."""
+    if not isinstance(data, dict) or not isinstance(data.get("rows"), list):
+        raise ValueError("expected an object with a list of rows")
+    if len(data["rows"]) > MISSION_MAX_ITEMS:
+        raise ValueError(f"at most {MISSION_MAX_ITEMS} rows")
+    if not all(isinstance(row, dict) for row in data["rows"]):
+        raise ValueError("each row is an object")
+    rows = [{name: row.get(name) for name in ITEM_FIELDS} for row in data["rows"]]
+    end = data.get("end") if data.get("end") in ENDS else "stop"
+    home = data.get("home")
+    valid_home = (
+        isinstance(home, list)
+        and len(home) == 2
+        and not item_problems({"lat": home[0], "lon": home[1]})
+    )
+    vessel_id = data.get("vessel")
+    vessel = None
+    if isinstance(vessel_id, int | str) and str(vessel_id).isdigit():
+        vessel = _vessels_visible_to(user).filter(pk=int(vessel_id)).first()
+    return {
+        "rows": rows,
+        "end": end,
+        "home": (float(home[0]), float(home[1])) if valid_home else None,
+        "vessel": vessel,
+    }
 
 
 EXPORT_LABELS = {

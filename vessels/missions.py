@@ -12,6 +12,7 @@ after, until the next change.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -154,12 +155,152 @@ def problems(
                 f"waypoints {n} and {n + 1} are the same point ({b['lat']:.7f}, {b['lon']:.7f})"
             )
     for leg in legs(items, end=end):
-        if leg.distance_m > max_leg_m:
-            found.append(
-                f"leg {leg.start} → {leg.to} is {format_distance(leg.distance_m)}, longer than "
-                f"the limit of {format_distance(max_leg_m)} (MISSION_MAX_LEG_M)"
-            )
+        problem = leg_problem(leg, max_leg_m=max_leg_m)
+        if problem:
+            found.append(problem)
     return found
+
+
+def leg_problem(leg: Leg, *, max_leg_m: float) -> str | None:
+    """Why this leg stops a send (too long: usually a mistyped coordinate), or None."""
+    if leg.distance_m <= max_leg_m:
+        return None
+    return (
+        f"leg {leg.start} → {leg.to} is {format_distance(leg.distance_m)}, longer than "
+        f"the limit of {format_distance(max_leg_m)} (MISSION_MAX_LEG_M)"
+    )
+
+
+def item_problems(item: Mapping[str, Any]) -> list[str]:
+    """What is wrong with one waypoint on its own (the model's ranges), [] when nothing: the
+    planner marks such a row and leaves it off the route rather than draw it anywhere."""
+    found = []
+    lat, lon = item.get("lat"), item.get("lon")
+    if not _number(lat) or not -90 <= lat <= 90:
+        found.append(f"latitude {lat} is not within -90…90")
+    if not _number(lon) or not -180 <= lon <= 180:
+        found.append(f"longitude {lon} is not within -180…180")
+    hold = item.get("hold_s") or 0
+    if not _number(hold) or not 0 <= hold <= HOLD_MAX_S:
+        found.append(f"hold {hold} s is not within 0…{HOLD_MAX_S:g} s")
+    radius = item.get("radius_m")
+    if radius is not None and (not _number(radius) or not RADIUS_MIN_M <= radius <= RADIUS_MAX_M):
+        found.append(f"radius {radius} m is not within {RADIUS_MIN_M:g}…{RADIUS_MAX_M:g} m")
+    speed = item.get("speed_mps")
+    if speed is not None and (not _number(speed) or not SPEED_MIN_MPS <= speed <= SPEED_MAX_MPS):
+        found.append(f"speed {speed} m/s is not within {SPEED_MIN_MPS:g}…{SPEED_MAX_MPS:g} m/s")
+    return found
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def review(
+    rows: Sequence[Mapping[str, Any]],
+    *,
+    cruise_speed_mps: float = DEFAULT_CRUISE_SPEED_MPS,
+    end: str = "stop",
+    home: tuple[float, float] | None = None,
+    max_leg_m: float = DEFAULT_MAX_LEG_M,
+) -> dict[str, Any]:
+    """The one set of figures and checks every mission display shows (the planner, live, and
+    the route table), JSON-ready: each row's own problems; the legs over the good rows (a
+    row with a problem is left out, as it could not be sent), each with its problem or None;
+    the totals and the words they are shown in; and every problem a send would report."""
+    good = [row for row in rows if not item_problems(row)]
+    plan = summary(good, cruise_speed_mps=cruise_speed_mps, end=end, home=home)
+    row_problems = [item_problems(row) for row in rows]
+    leg_dicts = []
+    for leg in plan.legs:
+        leg_dicts.append(
+            {
+                **leg.as_dict(),
+                "distance": format_distance(leg.distance_m),
+                "time": format_duration(leg.time_s),
+                "problem": leg_problem(leg, max_leg_m=max_leg_m),
+            }
+        )
+    route_problems = problems(good, max_leg_m=max_leg_m, end=end)
+    for n, found in enumerate(row_problems, start=1):
+        route_problems += [f"row {n}: {problem}" for problem in found]
+    return {
+        "rows": row_problems,
+        "holds": [
+            format_duration(row["hold_s"]) if _number(row.get("hold_s")) and row["hold_s"] else ""
+            for row in rows
+        ],
+        "legs": leg_dicts,
+        "waypoints": len(good),
+        "total_m": plan.total_m,
+        "hold_s": plan.hold_s,
+        "total_s": plan.total_s,
+        "total": totals_text(plan, waypoints=len(good), end=end),
+        "problems": route_problems,
+    }
+
+
+END_WORDS = {
+    "stop": "then it stops at the last waypoint",
+    "loop": "then it loops back to waypoint 1, for ever",
+    "return_home": "then it returns home",
+}
+
+
+def send_confirmation(
+    review: Mapping[str, Any],
+    *,
+    items: Sequence[Mapping[str, Any]],
+    end: str,
+    vessel_name: str,
+    last_fix: tuple[float, float] | None,
+) -> str:
+    """What an operator confirms before a send: the waypoints, distance and time (the
+    review's totals), how far the vessel's last fix is from waypoint 1, and the end."""
+    if last_fix is None or not items:
+        where = f"{vessel_name} has no position yet"
+    else:
+        gap = distance_m(last_fix[0], last_fix[1], items[0]["lat"], items[0]["lon"])
+        where = f"{vessel_name}'s last fix is {format_distance(gap)} from waypoint 1"
+    return f"Send to {vessel_name}: {review['total']}. {where}; {END_WORDS.get(end, end)}."
+
+
+def totals_text(plan: Summary, *, waypoints: int, end: str) -> str:
+    """The mission's totals in words, e.g. "5 waypoints · 3.2 km · 13 min (holds 30 s)"."""
+    text = f"{waypoints} waypoint{'' if waypoints == 1 else 's'} · {format_distance(plan.total_m)}"
+    text += f" · {format_duration(plan.total_s)}" + (" per lap" if end == "loop" else "")
+    if plan.hold_s:
+        text += f" (holds {format_duration(plan.hold_s)})"
+    return text
+
+
+def mismatch(items: Sequence[Mapping[str, Any]], end: str, *, shown: Any) -> str | None:
+    """How the route an operator confirmed on screen (``shown``: ``{"end", "items"}``, items
+    as ``items`` are) differs from the saved one, in words; None when they are the same route
+    (positions equal at MAVLink's 1e-7°, the other fields equal). A send compares them so
+    that what is queued is what the operator saw."""
+    if not isinstance(shown, Mapping) or not isinstance(shown.get("items"), list):
+        return "the route on screen was not confirmed"
+    seen = shown["items"]
+    if len(seen) != len(items):
+        return f"{len(seen)} waypoints on screen, {len(items)} saved"
+    for n, (a, b) in enumerate(zip(items, seen, strict=True), start=1):
+        if not isinstance(b, Mapping) or not _same_item(a, b):
+            return f"waypoint {n} on screen is not waypoint {n} as saved"
+    if shown.get("end") != end:
+        return f"the end on screen is {shown.get('end')}, saved {end}"
+    return None
+
+
+def _same_item(a: Mapping[str, Any], b: Mapping[str, Any]) -> bool:
+    try:
+        if not _same_point(a, b):
+            return False
+    except (KeyError, TypeError):
+        return False
+    return all(
+        (a.get(name) or 0) == (b.get(name) or 0) for name in ("hold_s", "radius_m", "speed_mps")
+    )
 
 
 def _same_point(a: Mapping[str, Any], b: Mapping[str, Any]) -> bool:
@@ -173,6 +314,11 @@ def format_distance(metres: float) -> str:
 
 
 def format_duration(seconds: float) -> str:
-    minutes = round(seconds / 60)
+    """Whole minutes (hours past the hour), or seconds under a minute: a 30 s hold is "30 s",
+    not "0 min"."""
+    whole = math.floor(seconds + 0.5)  # half up, as a person rounds (round() is to even)
+    if whole < 60:
+        return f"{whole} s"
+    minutes = math.floor(seconds / 60 + 0.5)
     hours, minutes = divmod(minutes, 60)
     return f"{hours} h {minutes:02d} min" if hours else f"{minutes} min"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 import functools
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from django.conf import settings
@@ -16,6 +16,7 @@ from django.utils.text import slugify
 from vessels import missionfiles, missions
 from vessels.errors import MissionCheckError, MissionFileError
 from vessels.keys import PREFIX_SHOWN, generate_key, hash_key
+from vessels.missionfiles.model import checked_text
 from vessels.models import Mission, MissionItem, Vessel, VesselKey
 
 
@@ -219,6 +220,28 @@ def mission_summary(*, mission: Mission, vessel: Vessel | None = None) -> missio
     )
 
 
+def mission_review(
+    *,
+    mission: Mission,
+    rows: Sequence[Mapping[str, Any]] | None = None,
+    end: str | None = None,
+    home: tuple[float, float] | None = None,
+    vessel: Vessel | None = None,
+) -> dict[str, Any]:
+    """missions.review of ``mission`` as saved, or of ``rows``/``end``/``home`` as the planner
+    shows them (not saved), at ``vessel``'s cruise speed (default: the mission's vessel's) and
+    the site's MISSION_MAX_LEG_M: the one source of the figures and checks on the page."""
+    vessel = vessel or mission.vessel
+    speed = vessel.cruise_speed_mps if vessel else missions.DEFAULT_CRUISE_SPEED_MPS
+    return missions.review(
+        mission.item_dicts() if rows is None else rows,
+        cruise_speed_mps=speed,
+        end=end or mission.end,
+        home=mission.home if rows is None else home,
+        max_leg_m=settings.MISSION_MAX_LEG_M,
+    )
+
+
 @transaction.atomic
 def mission_import(
     *,
@@ -234,6 +257,9 @@ def mission_import(
     Returns the mission and the items skipped (in words; only with ``skip_unsupported``).
     Raises MissionFileError naming every item the file holds that a mission cannot.
     """
+    # The upload's own name and the name given go into the mission too: the same text rule.
+    checked_text("the file name", filename)
+    checked_text("the name", name)
     parsed = missionfiles.load(
         content, format=format, filename=filename, skip_unsupported=skip_unsupported, name=name
     )

@@ -27,6 +27,12 @@ class MissionSendSerializer(serializers.Serializer):
         required=False, help_text="slug of the vessel to run it (default: the mission's own)"
     )
 
+    updated_at = serializers.DateTimeField(
+        required=False,
+        help_text="the mission's `updated_at` as the caller last read it: if the mission was "
+        "saved since, nothing is sent (400), so what goes out is what the caller saw",
+    )
+
     def validate_vessel(self, slug: str) -> Vessel:
         # A field of the body, not the URL: an unknown slug is bad input (400), not a 404.
         vessel = Vessel.objects.filter(slug=slug).first()
@@ -47,6 +53,16 @@ class MissionSendView(APIView):
         mission = get_object_or_404(missions_visible_to(request.user), pk=pk)
         incoming = MissionSendSerializer(data=request.data)
         incoming.is_valid(raise_exception=True)
+        seen = incoming.validated_data.get("updated_at")
+        if seen is not None and seen != mission.updated_at:
+            raise serializers.ValidationError(
+                {
+                    "updated_at": [
+                        f"not sent: the mission was saved at {mission.updated_at.isoformat()}, "
+                        "after the version you read; read it again and send"
+                    ]
+                }
+            )
         command = mission_send(
             mission=mission,
             vessel=incoming.validated_data.get("vessel"),

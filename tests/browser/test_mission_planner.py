@@ -8,14 +8,17 @@ from pathlib import Path
 import pytest
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
+from selenium.webdriver.support import expected_conditions as EC
 from selenium.webdriver.support.ui import Select
 
+from commands.models import Command
 from telemetry.services import fix_ingest
 from tests.browser.support import js, log_in, shot, wait_for
 from tests.conftest import make_user
+from vessels import geo
 from vessels.missions import legs
 from vessels.models import Mission, Vessel
-from vessels.services import mission_save_items, vessel_create
+from vessels.services import mission_save, mission_save_items, vessel_create
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
 
@@ -47,6 +50,14 @@ def planner_rows(browser) -> list[str]:
     ]
 
 
+def reviewed(browser) -> None:
+    """Wait for the server's review of the route on screen (figures, checks) to be shown."""
+    wait_for(
+        browser,
+        lambda b: js(b, "return document.getElementById('planner-list').dataset.state") == "ready",
+    )
+
+
 def open_planner(browser, url: str) -> None:
     browser.get(url)
     wait_for(browser, lambda b: js(b, "return !!window.shoresidePlanner"))
@@ -70,7 +81,7 @@ def test_a_three_point_mission_is_clicked_onto_the_map_dragged_saved_and_reloade
     wait_for(browser, lambda b: len(markers(b)) == 3)
     before = planner_rows(browser)
     assert len(before) == 3
-    assert "3 waypoints" in browser.find_element(By.ID, "planner-total").text
+    wait_for(browser, lambda b: "3 waypoints" in b.find_element(By.ID, "planner-total").text)
     shot(browser, "planner-2-three-waypoints")
 
     second = next(m for m in markers(browser) if m.text == "2")
@@ -99,10 +110,11 @@ def test_a_three_point_mission_is_clicked_onto_the_map_dragged_saved_and_reloade
     ]
     mission_save_items(mission=mission, items=rows)  # a speed change from item 2 on
     open_planner(browser, browser.current_url)
+    reviewed(browser)
     shown = js(
         browser,
-        "var p = window.shoresidePlanner; return p.legs(p.items(), p.vessel().cruise).legs"
-        ".slice(1).map(function (l) { return [l.distance, l.time]; })",
+        "return window.shoresidePlanner.review.legs"
+        ".map(function (l) { return [l.distance_m, l.time_s]; })",
     )
     items = [{"lat": i.lat, "lon": i.lon, "speed_mps": i.speed_mps} for i in mission.items.all()]
     server = legs(items, cruise_speed_mps=vessel_a.cruise_speed_mps, end="stop")
@@ -200,3 +212,88 @@ def test_a_vessel_name_with_markup_shows_as_text_in_the_planner_and_runs_nothing
     )
     assert not tooltip.find_elements(By.TAG_NAME, "img")
     assert browser.title == title != "pwned"
+
+
+def five_waypoint_mission(vessel: Vessel) -> Mission:
+    mission = mission_save(mission=Mission(name="Five", vessel=vessel))
+    points = [geo.offset(-31.9790, 115.8170, 90, 150 * n) for n in range(1, 6)]
+    return mission_save_items(mission=mission, items=[{"lat": a, "lon": b} for a, b in points])
+
+
+def alert_text(browser) -> tuple[str, object]:
+    alert = wait_for(browser, lambda b: EC.alert_is_present()(b))
+    text = alert.text
+    return text, alert
+
+
+def test_send_refuses_an_unsaved_deletion_then_sends_exactly_what_the_screen_shows(
+    browser, live_server, planner_user, vessel_a: Vessel, make_fix
+) -> None:
+    fix_ingest(vessel=vessel_a, records=[make_fix(lat=-31.9790, lon=115.8170)])
+    mission = five_waypoint_mission(vessel_a)
+    change = f"{live_server.url}/admin/vessels/mission/{mission.pk}/change/"
+    log_in(browser, live_server, planner_user)
+    open_planner(browser, change)
+    wait_for(browser, lambda b: len(markers(b)) == 5)
+    browser.find_elements(By.CSS_SELECTOR, "#planner-list .planner-delete")[4].click()
+    wait_for(browser, lambda b: len(markers(b)) == 4)
+    on_screen = planner_rows(browser)
+    shot(browser, "send-1-waypoint-5-deleted")
+
+    # Send with the deletion unsaved: refused in plain words, nothing queued.
+    js(browser, "window.scrollTo(0, 0)")
+    browser.find_element(By.CSS_SELECTOR, ".send-mission button").click()
+    text, alert = alert_text(browser)
+    assert text.startswith("Not sent: 4 waypoints on screen, 5 saved.")
+    alert.accept()
+    assert not Command.objects.exists()
+
+    # Saved, the page is the mission again: the confirmation sums it up, and the queued
+    # command holds the four waypoints the screen shows.
+    browser.find_element(By.NAME, "_continue").click()
+    wait_for(browser, lambda b: "was changed successfully" in b.page_source)
+    open_planner(browser, browser.current_url)
+    reviewed(browser)
+    assert planner_rows(browser) == on_screen
+    js(browser, "window.scrollTo(0, 0)")
+    browser.find_element(By.CSS_SELECTOR, ".send-mission button").click()
+    text, alert = alert_text(browser)
+    assert text == (
+        "Send to SPAB: 4 waypoints · 450 m · 5 min. SPAB's last fix is 150 m from waypoint 1; "
+        "then it stops at the last waypoint."
+    )
+    alert.accept()
+    wait_for(browser, lambda b: "queued as command" in b.page_source)
+    shot(browser, "send-2-queued")
+    queued = Command.objects.get().params["items"]
+    assert [f"{i['lat']:.5f}, {i['lon']:.5f}" for i in queued] == on_screen
+
+
+def test_an_impossible_row_and_an_over_long_leg_are_marked_live(
+    browser, live_server, planner_user, vessel_a: Vessel, settings
+) -> None:
+    settings.MISSION_MAX_LEG_M = 50_000
+    mission = five_waypoint_mission(vessel_a)
+    log_in(browser, live_server, planner_user)
+    open_planner(browser, f"{live_server.url}/admin/vessels/mission/{mission.pk}/change/")
+    reviewed(browser)
+    assert not browser.find_elements(By.CSS_SELECTOR, "#mission-map path.planner-bad-leg")
+    # Row 2 typed as latitude 95; row 4 moved 113 km east.
+    lat = browser.find_element(By.NAME, "items-1-lat")
+    lat.clear()
+    lat.send_keys("95")
+    far = geo.offset(-31.9790, 115.8170, 90, 113_000)
+    lon = browser.find_element(By.NAME, "items-3-lon")
+    lon.clear()
+    lon.send_keys(f"{far[1]:.6f}")
+    wait_for(browser, lambda b: len(markers(b)) == 4)
+    reviewed(browser)
+    js(browser, "document.querySelector('fieldset.planner').scrollIntoView()")
+    shot(browser, "planner-5-impossible-row-and-long-leg")
+    bad_row = browser.find_element(By.CSS_SELECTOR, "#planner-list tr.planner-row-problem")
+    assert "latitude 95 is not within -90…90" in bad_row.text
+    # Legs 2 → 3 and 3 → 4 (of the four drawable waypoints) run to and from the far one.
+    assert len(browser.find_elements(By.CSS_SELECTOR, "#mission-map path.planner-bad-leg")) == 2
+    problems = browser.find_element(By.ID, "planner-problems").text
+    assert "longer than the limit of 50.0 km" in problems
+    assert "row 2: latitude 95 is not within -90…90" in problems

@@ -178,10 +178,11 @@ def test_the_mission_page_sends_the_saved_mission_to_its_vessel(
     )
     html = admin_ui.get(f"/admin/vessels/mission/{mission.pk}/change/").content.decode()
     assert "Send to SPAB" in html
-    # What the button's form posts: the list's action for this one mission.
+    # What the button's form posts: the route on screen as planner.js confirmed it.
+    shown = {"end": "stop", "items": mission.item_dicts()}
     answer = admin_ui.post(
-        "/admin/vessels/mission/",
-        {"action": "send_to_vessel", "index": "0", "_selected_action": str(mission.pk)},
+        f"/admin/vessels/mission/{mission.pk}/send/",
+        {"confirmed": json.dumps(shown)},
         follow=True,
     )
     assert "queued as command" in answer.content.decode()

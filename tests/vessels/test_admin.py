@@ -182,7 +182,7 @@ def test_the_mission_page_shows_legs_totals_and_export_links(
     )
     page = admin_ui.get(f"/admin/vessels/mission/{mission.pk}/change/").content.decode()
     assert "<td>1 → 2</td><td>900 m</td><td>0°</td><td>1.5 m/s</td><td>10 min</td>" in page
-    assert "Total: 900 m, 10 min" in page
+    assert '<b id="mission-route-total">2 waypoints · 900 m · 10 min</b>' in page
     for fmt in ("plan", "waypoints", "geojson"):
         assert f"/admin/vessels/mission/{mission.pk}/export/{fmt}/" in page
     assert 'name="items-0-speed_mps"' in page

@@ -125,3 +125,66 @@ def test_durations_and_distances_read_well() -> None:
         "950 m",
         "12.3 km",
     )
+
+
+# --- the one review every display shows (issue 16 §4, §11) ---
+
+
+def test_a_hold_under_a_minute_is_shown_in_seconds_and_totals_are_worded_once() -> None:
+    items = route(0, 1095)
+    items[1]["hold_s"] = 30
+    review = missions.review(items, cruise_speed_mps=1.5)
+    assert missions.format_duration(30) == "30 s"
+    assert review["holds"] == ["", "30 s"]
+    # 1095 m at 1.5 m/s is 730 s, plus a 30 s hold: 12.7 min, shown once, as 13 min.
+    assert review["total"] == "2 waypoints · 1.1 km · 13 min (holds 30 s)"
+
+
+def test_the_review_flags_an_over_long_leg_and_a_row_out_of_range() -> None:
+    items = [*route(0, 113_000), point(95, 115.0), *route(113_500)]
+    review = missions.review(items, max_leg_m=50_000)
+    assert review["rows"][2] == ["latitude 95 is not within -90…90"]
+    assert [row for n, row in enumerate(review["rows"]) if n != 2] == [[], [], []]
+    # The bad row is left out of the route; the long leg is marked, the short one is not.
+    assert [(leg["from"], leg["to"]) for leg in review["legs"]] == [(1, 2), (2, 3)]
+    assert "longer than the limit of 50.0 km" in review["legs"][0]["problem"]
+    assert review["legs"][1]["problem"] is None
+    assert review["waypoints"] == 3
+    assert review["problems"] == [
+        review["legs"][0]["problem"],
+        "row 3: latitude 95 is not within -90…90",
+    ]
+
+
+def test_the_review_and_the_send_checks_are_one_rule_set() -> None:
+    items = route(0, 60_000, 60_000)
+    review = missions.review(items, max_leg_m=50_000)
+    assert review["problems"] == missions.problems(items, max_leg_m=50_000)
+
+
+def test_a_confirmed_route_matches_only_the_saved_one() -> None:
+    saved = route(0, 300, 900)
+    shown = {"end": "stop", "items": [dict(i, hold_s=0) for i in saved]}
+    assert missions.mismatch(saved, "stop", shown=shown) is None
+    assert missions.mismatch(saved, "stop", shown={"end": "stop", "items": shown["items"][:2]}) == (
+        "2 waypoints on screen, 3 saved"
+    )
+    moved = [dict(i) for i in shown["items"]]
+    moved[1]["lat"] += 1e-6
+    assert missions.mismatch(saved, "stop", shown={"end": "stop", "items": moved}) == (
+        "waypoint 2 on screen is not waypoint 2 as saved"
+    )
+    assert missions.mismatch(saved, "loop", shown=shown) == "the end on screen is stop, saved loop"
+    assert missions.mismatch(saved, "stop", shown=None) == "the route on screen was not confirmed"
+
+
+def test_the_send_confirmation_sums_up_the_route_and_the_distance_from_the_boat() -> None:
+    items = route(300, 1200)
+    review = missions.review(items, cruise_speed_mps=1.5)
+    text = missions.send_confirmation(
+        review, items=items, end="return_home", vessel_name="SPAB", last_fix=FREMANTLE
+    )
+    assert text == (
+        "Send to SPAB: 2 waypoints · 900 m · 10 min. SPAB's last fix is 300 m from waypoint 1; "
+        "then it returns home."
+    )

@@ -36,6 +36,7 @@ from vessels.services import (
     mission_delete,
     mission_export,
     mission_import,
+    mission_problems,
     mission_summary,
     mission_write,
 )
@@ -90,6 +91,10 @@ class MissionSerializer(serializers.ModelSerializer):
     total_s = serializers.SerializerMethodField(
         help_text="seconds: legs at the vessel's cruise speed (or the items' own) plus holds"
     )
+    problems = serializers.SerializerMethodField(
+        help_text="the route checks a send would fail (a leg over MISSION_MAX_LEG_M, …); "
+        "[] when none"
+    )
 
     class Meta:
         model = Mission
@@ -105,6 +110,7 @@ class MissionSerializer(serializers.ModelSerializer):
             "legs",
             "total_m",
             "total_s",
+            "problems",
             "created_at",
             "updated_at",
         ]
@@ -125,6 +131,9 @@ class MissionSerializer(serializers.ModelSerializer):
 
     def get_total_s(self, mission: Mission) -> float:
         return self._summary(mission).total_s
+
+    def get_problems(self, mission: Mission) -> list[str]:
+        return mission_problems(mission=mission)
 
     def create(self, validated_data: dict[str, Any]) -> Mission:
         items = validated_data.pop("items", [])

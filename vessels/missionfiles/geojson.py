@@ -18,6 +18,7 @@ from vessels.errors import MissionFileError
 from vessels.missionfiles.model import (
     Item,
     MissionFile,
+    checked_text,
     finish,
     finite,
     hold,
@@ -58,6 +59,9 @@ def load(content: bytes | str, *, skip_unsupported: bool = False, name: str = ""
                     raise MissionFileError(f"{where}: a LineString needs a list of coordinates")
                 lines.append((n, coords))
             elif kind != "LineString":
+                kind = (
+                    checked_text(f"{where}: geometry type", kind) if isinstance(kind, str) else kind
+                )
                 unsupported.append(f"{where} ({kind}): a mission is Points or one LineString")
         except MissionFileError as exc:
             errors.extend(exc.problems)
@@ -95,7 +99,7 @@ def _features(data: Any) -> tuple[list[Any], dict[str, Any]]:
 
 def _name(props: dict[str, Any]) -> str:
     name = props.get("name", "")
-    return name if isinstance(name, str) else ""
+    return checked_text("properties.name", name) if isinstance(name, str) else ""
 
 
 def _geometry(where: str, feature: Any) -> tuple[dict[str, Any], dict[str, Any]]:

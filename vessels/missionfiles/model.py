@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -72,6 +73,24 @@ def position(where: str, lat: Any, lon: Any) -> tuple[float, float]:
             f"{where}: position {lat}, {lon} is outside -90…90 latitude, -180…180 longitude"
         )
     return float(lat), float(lon)
+
+
+# The API's rule for text (DRF's CharField: ProhibitNullCharactersValidator and
+# ProhibitSurrogateCharactersValidator): PostgreSQL cannot store NUL, and a lone surrogate (a
+# valid JSON escape, but not UTF-8) breaks every page and answer that shows it.
+_UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
+
+
+def checked_text(where: str, value: str) -> str:
+    """``value``, a string taken from a file, if it can be stored and shown; else a
+    MissionFileError naming ``where`` (the offending text is not echoed: it cannot be)."""
+    found = _UNSTORABLE.search(value)
+    if found:
+        char = "a NUL character" if found.group() == "\x00" else "a lone surrogate"
+        raise MissionFileError(
+            f"{where}: the text holds {char} (U+{ord(found.group()):04X}), which cannot be stored"
+        )
+    return value
 
 
 def hold(where: str, value: Any) -> float:

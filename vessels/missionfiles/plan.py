@@ -14,6 +14,7 @@ from vessels.errors import MissionFileError
 from vessels.missionfiles import mavitems
 from vessels.missionfiles.model import (
     MissionFile,
+    checked_text,
     finite,
     is_number,
     known_home,
@@ -58,8 +59,11 @@ def _raw_item(number: int, item: Any) -> mavitems.RawItem:
         raise MissionFileError(f"{where} is not an object")
     kind = item.get("type")
     if kind != "SimpleItem":
+        complex_type = item.get("complexItemType", "?")
+        if isinstance(complex_type, str):  # kept in the skipped list and the mission's notes
+            complex_type = checked_text(f"{where}: complexItemType", complex_type)
         what = (
-            f"ComplexItem {item.get('complexItemType', '?')}"
+            f"ComplexItem {complex_type}"
             if kind == "ComplexItem"
             else (f"an item of type {kind!r}")
         )

@@ -1,15 +1,19 @@
 // The mission planner (issue 9 §5) on the Mission change page. The inline item rows stay the
 // form that is saved (seq, lat, lon, hold_s, radius_m, speed_mps); this script edits them from
 // the map and draws them: click to add at the end, drag to move, delete and reorder in the
-// list. Per-leg and total distance and time at the vessel's cruise speed (a speed change holds
-// from its item on); the end (stop, loop, return home) is drawn as the closing leg.
+// list. Per-leg and total distance and time, and the mission checks, are the server's
+// (vessels/missions.py review, through the admin's review URL): one computation for this list,
+// the route table and a send. A leg that fails a check is drawn red and dashed, a row that does
+// (latitude 95, say) says why beside it and stays off the map. The end (stop, loop, return
+// home) is drawn as the closing leg.
 (function () {
   "use strict";
   var S = window.Shoreside;
   var el = S.el;
   var PREFIX = "items";
   var COORD_DIGITS = 6; // ~0.1 m: finer than any GPS fix
-  // A template mission (no vessel) is timed at vessels/missions.py's DEFAULT_CRUISE_SPEED_MPS.
+  // Only for the "times at a cruise speed of" line: a template mission (no vessel) is timed
+  // at vessels/missions.py's DEFAULT_CRUISE_SPEED_MPS.
   var DEFAULT_CRUISE_SPEED_MPS = 1.5;
 
   function Planner(map) {
@@ -178,35 +182,53 @@
     this.pendingFrame = requestAnimationFrame(function () { self.pendingFrame = null; self.render(); });
   };
 
-  // Legs as vessels/missions.py counts them: an item's speed is the speed of the leg *to* it
-  // and of every leg after (DO_CHANGE_SPEED runs as the boat sets off toward that waypoint).
-  Planner.prototype.legs = function (items, cruise) {
-    var speed = (items[0] && items[0].speed) || cruise, legs = [null];
-    for (var n = 1; n < items.length; n++) {
-      speed = items[n].speed || speed;
-      var d = S.geo.distance(items[n - 1].lat, items[n - 1].lon, items[n].lat, items[n].lon);
-      legs.push({ distance: d, speed: speed, time: d / speed });
-    }
-    return { legs: legs, speed: speed, loopSpeed: (items[0] && items[0].speed) || speed };
+  // A position the map can draw: anything else stays off the map, its row marked by the
+  // server's review (vessels/missions.py item_problems says exactly what is wrong).
+  function drawable(item) { return Math.abs(item.lat) <= 90 && Math.abs(item.lon) <= 180; }
+
+  // The route as the server's review (admin ReviewView → vessels.missions.review) takes it.
+  Planner.prototype.route = function (items) {
+    var select = input("id_vessel"), current = document.querySelector("#planner-vessels li[data-current]");
+    return {
+      rows: items.map(function (i) { return { lat: i.lat, lon: i.lon, hold_s: i.hold, radius_m: i.radius, speed_mps: i.speed }; }),
+      end: this.end(), home: this.home(),
+      vessel: select ? (select.value || null) : (current ? current.dataset.id : null),
+    };
+  };
+
+  // Figures and checks come from the server, computed once (vessels/missions.py review) for
+  // this list, the route table and a send: the map is drawn at once, the numbers follow.
+  Planner.prototype.requestReview = function (items) {
+    var self = this, seq = (this.reviewSeq = (this.reviewSeq || 0) + 1);
+    var url = document.getElementById("planner-saved-mission").dataset.reviewUrl;
+    var token = document.querySelector("input[name=csrfmiddlewaretoken]");
+    this.list.dataset.state = "pending";
+    fetch(url, {
+      method: "POST", credentials: "same-origin",
+      headers: { "Content-Type": "application/json", "X-CSRFToken": token ? token.value : "" },
+      body: JSON.stringify(this.route(items)),
+    }).then(function (r) { return r.ok ? r.json() : Promise.reject(new Error("HTTP " + r.status)); })
+      .then(function (review) { if (seq === self.reviewSeq) { self.showReview(items, review); } })
+      .catch(function (err) {
+        if (seq !== self.reviewSeq) { return; }
+        self.list.dataset.state = "failed";
+        var total = document.getElementById("planner-total");
+        if (total) { total.textContent = "Figures unavailable (" + err.message + ")."; }
+      });
   };
 
   Planner.prototype.render = function () {
     var self = this, items = this.items(), vessel = this.vessel(), end = this.end(), home = this.home();
-    var cruise = (vessel && vessel.cruise) || DEFAULT_CRUISE_SPEED_MPS;
-    var plan = this.legs(items, cruise);
+    var good = items.filter(drawable);
     this.layer.clearLayers();
-    var path = items.map(function (i) { return [i.lat, i.lon]; });
+    var path = good.map(function (i) { return [i.lat, i.lon]; });
     if (path.length > 1) { L.polyline(path, { color: "#1565c0", weight: 3, interactive: false }).addTo(this.layer); }
     var closing = null;
-    if (items.length && end === "loop" && items.length > 1) { closing = [items[items.length - 1], items[0]]; }
-    if (items.length && end === "return_home" && home) { closing = [items[items.length - 1], { lat: home[0], lon: home[1] }]; }
-    var closeLeg = null;
+    if (good.length > 1 && end === "loop") { closing = [good[good.length - 1], good[0]]; }
+    if (good.length && end === "return_home" && home) { closing = [good[good.length - 1], { lat: home[0], lon: home[1] }]; }
     if (closing) {
       L.polyline([[closing[0].lat, closing[0].lon], [closing[1].lat, closing[1].lon]],
         { color: "#1565c0", weight: 2, dashArray: "6 6", interactive: false }).addTo(this.layer);
-      var cd = S.geo.distance(closing[0].lat, closing[0].lon, closing[1].lat, closing[1].lon);
-      var closeSpeed = end === "loop" ? plan.loopSpeed : plan.speed;
-      closeLeg = { distance: cd, time: cd / closeSpeed };
     }
     if (home) {
       L.marker(home, { interactive: false, icon: L.divIcon({ className: "home-icon", html: "H", iconSize: [20, 20], iconAnchor: [10, 10] }) })
@@ -216,7 +238,8 @@
       L.circleMarker(vessel.at, { radius: 5, color: "#555", fillOpacity: 0.6, interactive: false })
         .bindTooltip(el("span", { text: vessel.name + " (last fix)" })).addTo(this.layer);
     }
-    items.forEach(function (item, i) {
+    this.problemLayer = L.layerGroup().addTo(this.layer);
+    good.forEach(function (item, i) {
       var marker = L.marker([item.lat, item.lon], {
         draggable: self.editable, autoPan: true, title: "waypoint " + (i + 1),
         icon: L.divIcon({
@@ -230,8 +253,9 @@
         L.circle([item.lat, item.lon], { radius: item.radius, color: "#1565c0", weight: 1, fillOpacity: 0.05, interactive: false }).addTo(self.layer);
       }
     });
-    this.renderList(items, plan.legs, closeLeg, end, cruise);
+    this.renderList(items);
     this.rows().forEach(function (row) { row.classList.toggle("planner-selected", row === self.selected); });
+    this.requestReview(items);
   };
 
   Planner.prototype.select = function (row) {
@@ -240,28 +264,26 @@
     if (row) { row.scrollIntoView({ block: "nearest" }); }
   };
 
-  Planner.prototype.renderList = function (items, legs, closeLeg, end, cruise) {
-    var self = this, box = this.list;
+  // The list at once (positions, buttons); legs, times, problems and totals once reviewed.
+  Planner.prototype.renderList = function (items) {
+    var self = this, box = this.list, number = 0;
     box.innerHTML = "";
     var head = el("tr", {}, ["#", "position", "leg", "time", "hold", "speed", ""].map(function (h) { return el("th", { text: h }); }));
     var table = el("table", { class: "planner-items" }, [head]);
-    var totalD = 0, totalT = 0, timeKnown = true, holds = 0;
     items.forEach(function (item, i) {
-      var leg = legs[i];
-      if (leg) { totalD += leg.distance; if (leg.time === null) { timeKnown = false; } else { totalT += leg.time; } }
-      holds += item.hold;
       var buttons = el("td", { class: "planner-buttons" });
       if (self.editable) {
         buttons.appendChild(el("button", { type: "button", title: "earlier", text: "↑", class: "planner-up", onclick: function () { self.shift(item, -1); } }));
         buttons.appendChild(el("button", { type: "button", title: "later", text: "↓", class: "planner-down", onclick: function () { self.shift(item, 1); } }));
         buttons.appendChild(el("button", { type: "button", title: "delete", text: "✕", class: "planner-delete", onclick: function () { self.remove(item); } }));
       }
+      var label = drawable(item) ? String(++number) : "!";
       var tr = el("tr", { class: item.row && item.row === self.selected ? "selected" : "", "data-index": String(i + 1) }, [
-        el("td", { text: String(i + 1) }),
+        el("td", { text: label }),
         el("td", { text: S.fmtLatLon(item.lat, item.lon), class: "planner-position" }),
-        el("td", { text: leg ? S.fmtDistance(leg.distance) : "start" }),
-        el("td", { text: leg ? S.fmtDuration(leg.time) : "" }),
-        el("td", { text: item.hold ? S.fmtDuration(item.hold) : "" }),
+        el("td", { class: "planner-leg", text: number === 1 && drawable(item) ? "start" : "" }),
+        el("td", { class: "planner-time" }),
+        el("td", { class: "planner-hold" }),
         el("td", { text: item.speed === null ? "" : item.speed + " m/s" }),
         buttons,
       ]);
@@ -272,18 +294,49 @@
       table.appendChild(el("tr", {}, [el("td", { colspan: "7", class: "muted", text: self.editable ? "No waypoints yet: click the map." : "No waypoints." })]));
     }
     box.appendChild(table);
-    var endText = { stop: "Then it stops at the last waypoint.", loop: "Then it loops back to waypoint 1", return_home: "Then it returns home" }[end] || "";
-    if (closeLeg) { endText += " (" + S.fmtDistance(closeLeg.distance) + (closeLeg.time === null ? "" : ", " + S.fmtDuration(closeLeg.time)) + ")."; }
-    else if (end !== "stop") { endText += end === "return_home" ? " (home position not set: the autopilot's own home)." : "."; }
-    var withClose = totalD + (closeLeg ? closeLeg.distance : 0);
-    var timeWithClose = totalT + (closeLeg && closeLeg.time ? closeLeg.time : 0) + holds;
-    var speedText = "Times at a cruise speed of " + cruise + " m/s unless an item sets its own";
     box.appendChild(el("div", { class: "planner-totals" }, [
-      el("p", { id: "planner-total", text: items.length + " waypoints · " + S.fmtDistance(withClose) +
-        (timeKnown ? " · " + S.fmtDuration(timeWithClose) + (end === "loop" ? " per lap" : "") : "") +
-        (holds ? " (holds " + S.fmtDuration(holds) + ")" : "") }),
-      el("p", { class: "muted", text: speedText + ". " + endText }),
+      el("p", { id: "planner-total", text: "…" }),
+      el("ul", { id: "planner-problems", class: "errorlist" }),
+      el("p", { id: "planner-end", class: "muted" }),
     ]));
+  };
+
+  Planner.prototype.showReview = function (items, review) {
+    var self = this, end = this.end(), home = this.home(), vessel = this.vessel();
+    var good = items.filter(drawable), trs = this.list.querySelectorAll("tr[data-index]");
+    this.review = review;
+    items.forEach(function (item, i) {
+      var tr = trs[i], problems = review.rows[i] || [];
+      tr.classList.toggle("planner-row-problem", problems.length > 0);
+      tr.querySelector(".planner-hold").textContent = review.holds[i] || "";
+      if (problems.length) {
+        tr.querySelector(".planner-leg").textContent = problems.join("; ");
+        tr.querySelector(".planner-leg").className = "planner-leg planner-error";
+      }
+    });
+    review.legs.forEach(function (leg) {
+      var a = good[leg.from - 1], b = leg.to === "home" ? { lat: home[0], lon: home[1] } : good[leg.to - 1];
+      if (leg.problem) {
+        L.polyline([[a.lat, a.lon], [b.lat, b.lon]], { color: "#c62828", weight: 4, dashArray: "8 6", interactive: false, className: "planner-bad-leg" })
+          .addTo(self.problemLayer);
+      }
+      if (typeof leg.to !== "number" || leg.to !== leg.from + 1) { return; }
+      var tr = trs[items.indexOf(b)];
+      tr.querySelector(".planner-leg").textContent = leg.distance + (leg.problem ? " ⚠" : "");
+      tr.querySelector(".planner-leg").title = leg.problem || "";
+      tr.querySelector(".planner-time").textContent = leg.time;
+      tr.classList.toggle("planner-leg-problem", !!leg.problem);
+    });
+    var closing = review.legs.filter(function (leg) { return leg.to === "home" || (good.length > 1 && leg.to === 1); })[0];
+    var endText = { stop: "Then it stops at the last waypoint.", loop: "Then it loops back to waypoint 1", return_home: "Then it returns home" }[end] || "";
+    if (closing) { endText += " (" + closing.distance + ", " + closing.time + ")."; }
+    else if (end !== "stop") { endText += end === "return_home" ? " (home position not set: the autopilot's own home)." : "."; }
+    var cruise = (vessel && vessel.cruise) || DEFAULT_CRUISE_SPEED_MPS;
+    document.getElementById("planner-total").textContent = review.total;
+    document.getElementById("planner-end").textContent = "Times at a cruise speed of " + cruise + " m/s unless an item sets its own. " + endText;
+    var list = document.getElementById("planner-problems");
+    review.problems.forEach(function (p) { list.appendChild(el("li", { text: p })); });
+    this.list.dataset.state = "ready";
   };
 
   Planner.prototype.fit = function () {
@@ -295,8 +348,60 @@
     else if (vessel && vessel.at) { this.map.setView(vessel.at, 14); }
   };
 
+  // --- sending ------------------------------------------------------------------------
+
+  // The route on screen, as a send's "confirmed" (vessels/missions.py mismatch compares it).
+  Planner.prototype.shown = function () {
+    return {
+      end: this.end(),
+      items: this.items().map(function (i) {
+        return { lat: i.lat, lon: i.lon, hold_s: i.hold, radius_m: i.radius, speed_mps: i.speed };
+      }),
+    };
+  };
+
+  // Why the form is not the saved mission, or "" when it is: Send sends the saved one.
+  Planner.prototype.unsaved = function () {
+    var saved = document.getElementById("planner-saved-mission").dataset;
+    var was = this.savedItems(), now = this.items();
+    function same(a, b) { return (a || 0) === (b || 0); }
+    function e7(v) { return Math.round(v * 1e7); }
+    if (was.length !== now.length) { return now.length + " waypoints on screen, " + was.length + " saved"; }
+    for (var n = 0; n < now.length; n++) {
+      var a = was[n], b = now[n];
+      if (e7(a.lat) !== e7(b.lat) || e7(a.lon) !== e7(b.lon) || !same(a.hold, b.hold) ||
+          !same(a.radius, b.radius) || !same(a.speed, b.speed)) {
+        return "waypoint " + (n + 1) + " was changed";
+      }
+    }
+    if (this.end() !== (saved.end || "stop")) { return "the end was changed"; }
+    var home = this.home(), savedHome = saved.homeLat === "" ? null : [parseFloat(saved.homeLat), parseFloat(saved.homeLon)];
+    if (JSON.stringify(home) !== JSON.stringify(savedHome)) { return "the home position was changed"; }
+    var select = input("id_vessel"), current = document.querySelector("#planner-vessels li[data-current]");
+    if (select && current && select.value !== current.dataset.id) { return "the vessel was changed"; }
+    return "";
+  };
+
+  // Send refuses while the form has unsaved changes, asks the operator to confirm the
+  // summary, and posts the route on screen for the server to compare with the saved one.
+  Planner.prototype.hookSend = function () {
+    var self = this, form = document.querySelector("form.send-mission");
+    if (!form) { return; }
+    form.addEventListener("submit", function (e) {
+      var why = self.unsaved();
+      if (why) {
+        e.preventDefault();
+        window.alert("Not sent: " + why + ". Save the mission first (Save and continue editing), then send.");
+        return;
+      }
+      if (!window.confirm(form.dataset.confirm)) { e.preventDefault(); return; }
+      form.querySelector("input[name=confirmed]").value = JSON.stringify(self.shown());
+    });
+  };
+
   window.ShoresideMissionPlanner = function (map) {
     S.baseMap(map);
     window.shoresidePlanner = new Planner(map);
+    window.shoresidePlanner.hookSend();
   };
 })();
