@@ -230,6 +230,7 @@ _MINUTES = re.compile(r"([0-9]{1,2}(?:\.[0-9]*)?)([NSEWnsew]?)")
 _HEMISPHERES = {"lat": ("N", "S"), "lon": ("E", "W")}
 _LETTERS = frozenset("NSEW")
 MINUTES_PER_DEGREE = 60
+LAT_MAX = 90  # degrees: more can only be a longitude's
 COORDINATE_FORMS = "-32.0380 115.3325 or 32 02.28S 115 19.95E"
 
 
@@ -255,13 +256,76 @@ def _coordinates(spec: catalog.CommandKind, args: Sequence[str]) -> list[str]:
         else:
             values.append(token)
     head = list(args[:lead])
+    if not _numbers(params[:lead], head):
+        return [*head, *values]  # the catalog names what is wrong with the leading values
+    _check_arity(spec, values)
     if len(values) == 2:
         return [*head, _decimal(values[0], "lat"), _decimal(values[1], "lon")]
-    if len(values) == 4:
-        return [*head, _minutes(values[0], values[1], "lat"), _minutes(values[2], values[3], "lon")]
-    if len(values) < 2:
-        return [*head, *values]  # the catalog names the missing value
-    raise CatalogError(f"give lat lon as {COORDINATE_FORMS}", field="lat")
+    return [*head, _minutes(values[0], values[1], "lat"), _minutes(values[2], values[3], "lon")]
+
+
+def _numbers(params: Sequence[catalog.Param], tokens: Sequence[str]) -> bool:
+    """Whether the values before lat lon are numbers where numbers are due (``#WAYPOINT 1``)."""
+    for param, token in zip(params, tokens, strict=False):
+        try:
+            if param.kind == "int":
+                int(token)
+            elif param.kind == "float":
+                float(token)
+        except ValueError:
+            return False
+    return True
+
+
+def _hemisphere(token: str) -> str:
+    letter = token[-1:].upper()
+    return letter if letter in _LETTERS else ""
+
+
+def _one_in_minutes(values: Sequence[str], letters: str) -> bool:
+    """``32 02.28S``: two values that are one coordinate in degrees and minutes, its letter
+    one of ``letters`` (a decimal pair never ends with N or S in the lon's place)."""
+    degrees, minutes = _DEGREES.fullmatch(values[0]), _MINUTES.fullmatch(values[1])
+    return (
+        degrees is not None
+        and minutes is not None
+        and minutes.group(2).upper() in letters
+        and float(minutes.group(1)) < MINUTES_PER_DEGREE
+    )
+
+
+def _check_arity(spec: catalog.CommandKind, values: Sequence[str]) -> None:
+    """Raise a CatalogError naming what is missing or extra when ``values`` are not one
+    latitude and one longitude in the same form (2 decimal values or 4 in degrees and minutes).
+
+    Hemisphere letters tell which coordinate was given: ``32 02.28S`` is a latitude alone
+    (issue 16 §15: it was read as lat 32, lon 2.28S, and refused for the letter), ``115 19.95E``
+    a longitude alone when its degrees are past any latitude.
+    """
+    count = len(values)
+    if count == 0:
+        raise CatalogError("latitude and longitude missing", field="lat")
+    if count == 1:
+        if _hemisphere(values[0]) in ("E", "W"):
+            raise CatalogError("latitude missing", field="lat")
+        raise CatalogError("longitude missing", field="lon")
+    if count == 2:
+        if not _hemisphere(values[0]) and _one_in_minutes(values, "NS"):
+            raise CatalogError("longitude missing", field="lon")
+        if (
+            not _hemisphere(values[0])
+            and _one_in_minutes(values, "EW")
+            and int(values[0].lstrip("+-")) > LAT_MAX
+        ):
+            raise CatalogError("latitude missing", field="lat")
+        return
+    usage = " ".join(p.name for p in spec.params)
+    if _hemisphere(values[0]) and _hemisphere(values[1]):  # two decimal values, then more
+        raise CatalogError(f"#{spec.sms_word} takes {usage}; extra: {' '.join(values[2:])}")
+    if count > 4:
+        raise CatalogError(f"#{spec.sms_word} takes {usage}; extra: {' '.join(values[4:])}")
+    if count == 3:
+        raise CatalogError(f"3 values for lat lon: give lat lon as {COORDINATE_FORMS}", field="lat")
 
 
 def _signed(name: str, sign: str, hemisphere: str) -> float:

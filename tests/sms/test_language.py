@@ -369,13 +369,44 @@ def test_northern_and_western_hemispheres() -> None:
         ("-32.038 115.3325N", "lon takes E or W, not N"),
         ("-32 02.28 115", "give lat lon as -32.0380 115.3325 or 32 02.28S 115 19.95E"),
         ("32.5 02.28S 115 19.95E", "lat must be degrees and minutes as in"),
-        ("-32.0380", "#WAYPOINT needs lon"),
     ],
 )
 def test_coordinate_mistakes_are_named(coordinates: str, error: str) -> None:
     item = one(f"#WAYPOINT 1 {coordinates}")
     assert item.kind == ItemKind.ERROR
     assert error in item.error
+
+
+@pytest.mark.parametrize(
+    ("text", "error"),
+    [
+        # issue 16 §15: was "lon takes E or W, not S"
+        ("#WAYPOINT 1 32 02.28S", "longitude missing"),
+        ("#WAYPOINT 1 32 02.28 S", "longitude missing"),
+        ("#WAYPOINT 1 -32.0380", "longitude missing"),
+        ("#WAYPOINT 1 32.0380S", "longitude missing"),
+        ("#WAYPOINT 1 115.3325E", "latitude missing"),
+        ("#WAYPOINT 1 115 19.95E", "latitude missing"),
+        ("#WAYPOINT 1", "latitude and longitude missing"),
+        ("#WAYPOINT 1 32.038S 115.3325E 7", "#WAYPOINT takes index lat lon; extra: 7"),
+        ("#WAYPOINT 1 32 02.28S 115 19.95E 7 8", "#WAYPOINT takes index lat lon; extra: 7 8"),
+        ("#WAYPOINT 1 -32 02.28 115 19.95 7", "#WAYPOINT takes index lat lon; extra: 7"),
+        (
+            "#WAYPOINT 1 -32 02.28 115",
+            "3 values for lat lon: give lat lon as -32.0380 115.3325 or 32 02.28S 115 19.95E",
+        ),
+        ("#WAYPOINT x 32 02.28S", "index must be a number (got 'x')"),
+    ],
+)
+def test_a_missing_or_extra_coordinate_is_named(text: str, error: str) -> None:
+    item = one(text)
+    assert (item.kind, item.error) == (ItemKind.ERROR, error)
+    assert reply_to([item]) == f"{text} ERR {error}"
+
+
+def test_a_decimal_pair_is_still_a_pair_when_the_latitude_could_be_degrees() -> None:
+    item = one("#WAYPOINT 1 32 19.95E")  # 32° N, 19.95° E: a whole decimal position
+    assert (item.kind, item.params["lat"], item.params["lon"]) == (ItemKind.COMMAND, 32, 19.95)
 
 
 # --- replies: one SMS, every value, GSM-7 ---
