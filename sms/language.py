@@ -10,6 +10,7 @@ Pure: no Django, no I/O. The command words, parameters and ranges are the comman
 is SMS-specific:
 
 * several commands per SMS, one per line or separated by ``;`` (at most ``MAX_COMMANDS``);
+  identical ones are taken once (``_merge_repeats``);
 * a catalog word with no values is a query (``#LIGHT``); ``#STATUS`` and ``#HELP [word]``;
 * coordinates as seamen write them (see ``_coordinates``): decimal degrees ``-32.0380 115.3325``
   or ``32.0380S 115.3325E``; degrees and decimal minutes ``32 02.28S 115 19.95E``,
@@ -27,7 +28,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
@@ -79,6 +80,7 @@ class Item:
     error: str = ""
     answer: str = ""  # what the language answers by itself (#HELP)
     commanding: bool = False
+    repeats: int = 1  # a command given this many times in the SMS, taken once
 
     def as_dict(self) -> dict[str, Any]:
         data: dict[str, Any] = {"kind": self.kind.value, "text": self.echo}
@@ -88,6 +90,8 @@ class Item:
             data["params"] = dict(self.params)
         if self.error:
             data["error"] = self.error
+        if self.repeats > 1:
+            data["repeats"] = self.repeats
         return data
 
 
@@ -98,6 +102,12 @@ class Answer:
     echo: str
     outcome: str
     error: bool = False
+    note: str = ""  # said after the outcome, whatever it becomes ("(12 identical … once)")
+
+    @property
+    def said(self) -> str:
+        """The outcome as the reply gives it, with the note."""
+        return f"{self.outcome} {self.note}" if self.note else self.outcome
 
 
 # -- parsing ----------------------------------------------------------------------------------
@@ -122,10 +132,62 @@ def parse(
     segments = [s for line in text.splitlines() for s in line.split(";") if s.strip()]
     if not segments:
         return [_error("", "empty message; send #HELP for the commands")]
-    items = [_parse_command(s, vessel_kind, table) for s in segments[:MAX_COMMANDS]]
-    if len(segments) > MAX_COMMANDS:
-        extra = len(segments) - MAX_COMMANDS
-        items.append(_error("", f"{extra} more not read: at most {MAX_COMMANDS} per SMS"))
+    # One parse per distinct text: a flood of one command costs one parse (MAX_TEXT bounds it).
+    seen: dict[str, Item] = {}
+    parsed = []
+    for segment in segments:
+        key = " ".join(segment.split())
+        if key not in seen:
+            seen[key] = _parse_command(segment, vessel_kind, table)
+        parsed.append(seen[key])
+    return _merge_repeats(parsed)
+
+
+def _identity(item: Item) -> tuple[str, str] | None:
+    """What makes two commands identical (kind and exact params); None for anything else."""
+    if item.kind != ItemKind.COMMAND:
+        return None
+    return item.command, repr(sorted(item.params.items()))
+
+
+def _merge_repeats(parsed: Sequence[Item]) -> list[Item]:
+    """The items read from one SMS, identical commands taken once (issue 16 §6: twelve
+    ``#HOLD`` made ten commands, nine of them superseded at once).
+
+    1. The first ``MAX_COMMANDS`` distinct items, by first appearance, are read; the rest are
+       refused together (``3 more not read``). A repeat of a command read is not counted.
+    2. A command given several times stands once, where it was given last, with ``repeats``
+       saying how often: the SMS still ends where it asked (``#LIGHT ON; #LIGHT OFF; #LIGHT
+       ON`` leaves the light on; ``#HOLD; #FHEAD 230; #HOLD`` holds).
+    3. Queries, #STATUS, #HELP and refusals are never merged: each is answered where it stands.
+    """
+    keys = [_identity(item) for item in parsed]
+    counts: dict[tuple[str, str], int] = {}
+    last: dict[tuple[str, str], int] = {}
+    read: set[int] = set()  # indices of the first appearances read
+    not_read = 0
+    for index, key in enumerate(keys):
+        if key is not None and key in counts:
+            counts[key] += 1
+            last[key] = index
+            continue
+        if key is not None:
+            counts[key], last[key] = 1, index
+        if len(read) < MAX_COMMANDS:
+            read.add(index)
+        elif key is None:
+            not_read += 1  # an unread command is counted below, with its repeats
+    read_keys = {keys[i] for i in read} - {None}
+    items: list[Item] = []
+    for index, (item, key) in enumerate(zip(parsed, keys, strict=True)):
+        if key is None:
+            if index in read:
+                items.append(item)
+        elif key in read_keys and last[key] == index:
+            items.append(item if counts[key] == 1 else replace(item, repeats=counts[key]))
+    not_read += sum(n for key, n in counts.items() if key not in read_keys)
+    if not_read:
+        items.append(_error("", f"{not_read} more not read: at most {MAX_COMMANDS} per SMS"))
     return items
 
 
@@ -368,6 +430,12 @@ def answer_error(item: Item) -> Answer:
     return Answer(item.echo, f"ERR {item.error}", error=True)
 
 
+def answer_command(item: Item, outcome: str, *, error: bool = False) -> Answer:
+    """A command's answer (``QUEUED``, ``ERR …``), saying when the SMS gave it several times."""
+    note = f"({item.repeats} identical commands in this SMS taken once)" if item.repeats > 1 else ""
+    return Answer(item.echo, outcome, error=error, note=note)
+
+
 def answer_help(item: Item) -> Answer:
     return Answer(item.echo, item.answer)
 
@@ -427,11 +495,12 @@ def _septets(text: str) -> int:
 
 
 def _render(answer: Answer, room: int) -> str:
-    if _PLAIN.fullmatch(answer.echo) and _PLAIN.fullmatch(answer.outcome):
-        text = " ".join([*answer.echo.split(), *answer.outcome.split()])
+    said = answer.said
+    if _PLAIN.fullmatch(answer.echo) and _PLAIN.fullmatch(said):
+        text = " ".join([*answer.echo.split(), *said.split()])
         if len(text) <= room:
             return text  # the usual reply: plain and short
-    echo, outcome = _fields(answer.echo), _fields(answer.outcome)
+    echo, outcome = _fields(answer.echo), _fields(said)
     if _length(echo) + 1 + _length(outcome) <= room:
         return " ".join([*echo, *outcome])
     outcome = _prefix(outcome, room - ECHO_ROOM, lambda _n: "...")

@@ -7,8 +7,8 @@ to the sender, never silently); ``sms.bridge.commands`` (the result_detail texts
 ``no answer from the C&C box``).
 
 A held reply keeps its answers as JSON (``SmsMessage.parsed`` of the outgoing message):
-``{"echo", "outcome", "error", "command"}`` where ``command`` is the pk of the command whose
-outcome replaces ``outcome`` once it ends. Pure: no Django, no I/O.
+``{"echo", "outcome", "error", "note", "command"}`` where ``command`` is the pk of the command
+whose outcome replaces ``outcome`` once it ends (``note`` stays after it). Pure: no Django, no I/O.
 """
 
 from __future__ import annotations
@@ -54,6 +54,8 @@ def answer_record(answer: Answer, command: int | None = None) -> dict[str, Any]:
     record: dict[str, Any] = {"echo": answer.echo, "outcome": answer.outcome}
     if answer.error:
         record["error"] = True
+    if answer.note:
+        record["note"] = answer.note
     if command is not None:
         record["command"] = command
     return record
@@ -78,7 +80,8 @@ def settle(
             else:
                 outcome = settled
                 error = settled.startswith(FAILED)
-        answers.append(Answer(str(record.get("echo", "")), outcome, error=error))
+        note = str(record.get("note", ""))
+        answers.append(Answer(str(record.get("echo", "")), outcome, error=error, note=note))
     return compose_reply(answers), ended
 
 

@@ -11,7 +11,7 @@ import hashlib
 import logging
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import phonenumbers
@@ -354,10 +354,10 @@ def _carry_out(
                     created_by=sender,
                 )
             except CommandError as exc:  # the vessel was made inactive, …
-                answers.append(Answer(item.echo, f"ERR {exc.message}", error=True))
+                answers.append(language.answer_command(item, f"ERR {exc.message}", error=True))
                 continue
             queued.append((len(answers), command))
-            answers.append(Answer(item.echo, "QUEUED"))
+            answers.append(language.answer_command(item, "QUEUED"))
         elif item.kind == ItemKind.QUERY:
             answers.append(_answer_query(vessel, item))
         elif item.kind == ItemKind.STATUS:
@@ -379,7 +379,7 @@ def _say_superseded(answers: list[Answer], queued: list[tuple[int, Command]]) ->
     navigation = [(i, c) for i, c in queued if catalog.KINDS[c.kind].navigation]
     for index, command in navigation[:-1]:
         command.status = Status.SUPERSEDED
-        answers[index] = Answer(answers[index].echo, command.status.upper())
+        answers[index] = replace(answers[index], outcome=command.status.upper())
 
 
 def _values(command: Command) -> str:

@@ -148,3 +148,14 @@ def test_without_a_window_the_reply_says_queued_at_once(glider: Vessel, phone: s
         SendStatus.PENDING,
         [("pending", "#FHEAD 230 QUEUED")],
     )
+
+
+def test_a_held_reply_keeps_its_note_on_identical_commands_once_settled(
+    glider: Vessel, phone: str
+) -> None:
+    text_in(glider, ";".join(["#HOLD"] * 12))
+    end(Command.objects.get(), ok=True)  # one command, not twelve
+    sms_replies_due(vessel=glider, now=T0)
+    assert outgoing(glider) == [
+        ("pending", "#HOLD OK (12 identical commands in this SMS taken once)")
+    ]

@@ -19,6 +19,7 @@ from sms.language import (
     Answer,
     Item,
     ItemKind,
+    answer_command,
     answer_error,
     answer_help,
     compose_reply,
@@ -60,7 +61,7 @@ def reply_to(items: list[Item]) -> str:
     answers = []
     for item in items:
         if item.kind == ItemKind.COMMAND:
-            answers.append(Answer(item.echo, "QUEUED"))
+            answers.append(answer_command(item, "QUEUED"))
         elif item.kind == ItemKind.HELP:
             answers.append(answer_help(item))
         elif item.kind == ItemKind.ERROR:
@@ -287,9 +288,67 @@ def test_a_bad_command_does_not_lose_the_good_ones_beside_it() -> None:
 
 
 def test_at_most_ten_commands_are_read_and_the_rest_refused_together() -> None:
-    items = parse(";".join(["#LIGHT ON"] * (MAX_COMMANDS + 3)), table=SHIPPED)
+    items = parse(";".join(f"#FHEAD {i}" for i in range(MAX_COMMANDS + 3)), table=SHIPPED)
     assert len(items) == MAX_COMMANDS + 1
     assert items[-1].error == f"3 more not read: at most {MAX_COMMANDS} per SMS"
+
+
+# --- identical commands in one SMS (issue 16 §6) ---
+
+
+def test_twelve_identical_commands_are_one_command_and_the_reply_says_so() -> None:
+    items = parse(";".join(["#HOLD"] * 12), table=SHIPPED)
+    assert [(i.kind, i.command, i.repeats) for i in items] == [(ItemKind.COMMAND, "hold", 12)]
+    assert items[0].as_dict()["repeats"] == 12
+    assert reply_to(items) == "#HOLD QUEUED (12 identical commands in this SMS taken once)"
+
+
+def test_commands_are_identical_by_kind_and_values_whatever_their_spelling() -> None:
+    items = parse(
+        "#WAYPOINT 1 -32.0380 115.3325\n#waypoint 1 32 02.28S 115 19.95E; #WAYPOINT 2 -32 115",
+        table=SHIPPED,
+    )
+    assert [(i.echo, i.repeats) for i in items] == [
+        ("#WAYPOINT 1 -32.0380 115.3325", 2),
+        ("#WAYPOINT 2 -32.0000 115.0000", 1),
+    ]
+
+
+def test_a_repeated_command_stands_where_it_was_given_last_so_the_sms_ends_as_asked() -> None:
+    items = parse("#LIGHT ON; #LIGHT OFF; #LIGHT ON; #HOLD; #FHEAD 230; #HOLD", table=SHIPPED)
+    assert [(i.echo, i.repeats) for i in items] == [
+        ("#LIGHT OFF", 1),
+        ("#LIGHT ON", 2),
+        ("#FHEAD 230", 1),
+        ("#HOLD", 2),
+    ]
+
+
+def test_repeats_of_a_command_read_do_not_count_towards_the_ten() -> None:
+    text = ";".join(["#HOLD"] * 5 + [f"#FHEAD {i}" for i in range(MAX_COMMANDS)] + ["#HOLD"])
+    items = parse(text, table=SHIPPED)
+    assert len(items) == MAX_COMMANDS + 1
+    assert items[-1].error == f"1 more not read: at most {MAX_COMMANDS} per SMS"
+    assert (items[-2].echo, items[-2].repeats) == ("#HOLD", 6)
+    assert "#FHEAD 9" not in [i.echo for i in items]
+
+
+def test_queries_and_refusals_are_never_merged() -> None:
+    items = parse("#LIGHT; #LIGHT; #RUDDER 45; #RUDDER 45", table=SHIPPED)
+    assert [(i.kind, i.repeats) for i in items] == [
+        (ItemKind.QUERY, 1),
+        (ItemKind.QUERY, 1),
+        (ItemKind.ERROR, 1),
+        (ItemKind.ERROR, 1),
+    ]
+
+
+def test_the_note_on_repeats_stays_within_one_sms() -> None:
+    text = "\n".join(f"#WAYPOINT {i} -32.0345 115.3326\n#WAYPOINT {i} -32.0345 115.3326"
+                     for i in range(1, 9))  # fmt: skip
+    reply = reply_to(parse(text, table=SHIPPED))
+    assert typeable_sms(reply)
+    assert reply.startswith("#WAYPOINT 1 -32.0345 115.3326 QUEUED (2 identical commands in this")
 
 
 def test_an_empty_or_oversized_message_is_one_error() -> None:

@@ -353,6 +353,21 @@ def test_a_rate_limit_of_zero_is_off(
     assert all(send(glider, "#STATUS").outcome == Outcome.ACCEPTED for _ in range(15))
 
 
+def test_identical_commands_in_one_sms_queue_one_command_none_superseded(
+    glider: Vessel, skipper: AuthorisedNumber
+) -> None:
+    result = send(glider, ";".join(["#HOLD"] * 12))  # issue 16 §6: made 10, 9 superseded
+    (command,) = Command.objects.all()
+    assert (command.kind, command.status) == ("hold", "queued")
+    assert result.commands == (command,)
+    assert result.reply_texts == ["#HOLD QUEUED (12 identical commands in this SMS taken once)"]
+    result.message.refresh_from_db()
+    assert result.message.parsed == [
+        {"kind": "command", "text": "#HOLD", "command": "hold", "repeats": 12}
+    ]
+    assert not CommandEvent.objects.filter(to_status="superseded").exists()
+
+
 # --- the outgoing queue the modem loop sends ---
 
 
