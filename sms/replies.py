@@ -13,6 +13,7 @@ whose outcome replaces ``outcome`` once it ends (``note`` stays after it). Pure:
 
 from __future__ import annotations
 
+import datetime as dt
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -108,3 +109,29 @@ def readings_text(readings: Mapping[str, Any]) -> str:
             else:
                 parts.append(text.lstrip("/"))
     return " ".join(parts)
+
+
+_WINDOW_UNITS = (("day", 86400), ("h", 3600), ("min", 60))
+
+
+def _window(seconds: int) -> str:
+    for unit, size in _WINDOW_UNITS:
+        if seconds % size == 0:
+            count = seconds // size
+            return f"{count} {unit}{'s' if unit == 'day' and count != 1 else ''}"
+    return f"{seconds} s"
+
+
+def rate_limit_notice(*, limit: int, window_s: int, until: dt.datetime, now: dt.datetime) -> str:
+    """The one SMS a number gets when it reaches the rate limit: the limit and when its texts
+    are answered again, in UTC to the minute, rounded up so that the time given is never early
+    (the date too when it is not today's)."""
+    until = until.astimezone(dt.UTC)
+    minute = until.replace(second=0, microsecond=0)
+    if until > minute:
+        minute += dt.timedelta(minutes=1)
+    today = now.astimezone(dt.UTC).date()
+    when = f"{minute:%H:%M} UTC" if minute.date() == today else f"{minute:%Y-%m-%d %H:%M} UTC"
+    return (
+        f"SMS limit reached ({limit} per {_window(window_s)}): texts are not answered until {when}."
+    )
