@@ -132,22 +132,30 @@ def parse(
     segments = [s for line in text.splitlines() for s in line.split(";") if s.strip()]
     if not segments:
         return [_error("", "empty message; send #HELP for the commands")]
-    # One parse per distinct text: a flood of one command costs one parse (MAX_TEXT bounds it).
-    seen: dict[str, Item] = {}
-    parsed = []
-    for segment in segments:
-        key = " ".join(segment.split())
-        if key not in seen:
-            seen[key] = _parse_command(segment, vessel_kind, table)
-        parsed.append(seen[key])
+    if len(segments) <= MAX_COMMANDS:  # most SMS: a few commands, each parsed
+        parsed = [_parse_command(s, vessel_kind, table) for s in segments]
+    else:  # one parse per distinct text: a flood of one command costs one (MAX_TEXT bounds it)
+        seen: dict[str, Item] = {}
+        parsed = []
+        for segment in segments:
+            key = " ".join(segment.split())
+            if key not in seen:
+                seen[key] = _parse_command(segment, vessel_kind, table)
+            parsed.append(seen[key])
+    if len(parsed) == 1:
+        return parsed
     return _merge_repeats(parsed)
 
 
 def _identity(item: Item) -> tuple[str, str] | None:
-    """What makes two commands identical (kind and exact params); None for anything else."""
+    """What makes two commands identical (kind and exact params); None for anything else.
+
+    The catalog builds a kind's params in one order, so their repr compares them exactly
+    (floats to the last digit: the echo's 4 decimals could join two different positions).
+    """
     if item.kind != ItemKind.COMMAND:
         return None
-    return item.command, repr(sorted(item.params.items()))
+    return item.command, repr(item.params)
 
 
 def _merge_repeats(parsed: Sequence[Item]) -> list[Item]:
@@ -161,6 +169,11 @@ def _merge_repeats(parsed: Sequence[Item]) -> list[Item]:
        ON`` leaves the light on; ``#HOLD; #FHEAD 230; #HOLD`` holds).
     3. Queries, #STATUS, #HELP and refusals are never merged: each is answered where it stands.
     """
+    if len(parsed) <= MAX_COMMANDS:
+        # Identical commands have the same echo: different echoes, nothing to merge.
+        echoes = [item.echo for item in parsed if item.kind == ItemKind.COMMAND]
+        if len(set(echoes)) == len(echoes):
+            return list(parsed)
     keys = [_identity(item) for item in parsed]
     counts: dict[tuple[str, str], int] = {}
     last: dict[tuple[str, str], int] = {}
@@ -318,9 +331,12 @@ def _coordinates(spec: catalog.CommandKind, args: Sequence[str]) -> list[str]:
         else:
             values.append(token)
     head = list(args[:lead])
-    if not _numbers(params[:lead], head):
+    try:
+        _check_arity(spec, values)
+    except CatalogError:
+        if _numbers(params[:lead], head):
+            raise
         return [*head, *values]  # the catalog names what is wrong with the leading values
-    _check_arity(spec, values)
     if len(values) == 2:
         return [*head, _decimal(values[0], "lat"), _decimal(values[1], "lon")]
     return [*head, _minutes(values[0], values[1], "lat"), _minutes(values[2], values[3], "lon")]
@@ -372,22 +388,25 @@ def _check_arity(spec: catalog.CommandKind, values: Sequence[str]) -> None:
             raise CatalogError("latitude missing", field="lat")
         raise CatalogError("longitude missing", field="lon")
     if count == 2:
-        if not _hemisphere(values[0]) and _one_in_minutes(values, "NS"):
+        second = _hemisphere(values[1])
+        if not second or _hemisphere(values[0]):  # the usual pair: nothing to look into
+            return
+        if second in "NS" and _one_in_minutes(values, "NS"):
             raise CatalogError("longitude missing", field="lon")
-        if (
-            not _hemisphere(values[0])
-            and _one_in_minutes(values, "EW")
-            and int(values[0].lstrip("+-")) > LAT_MAX
-        ):
+        if _one_in_minutes(values, "EW") and int(values[0].lstrip("+-")) > LAT_MAX:
             raise CatalogError("latitude missing", field="lat")
         return
-    usage = " ".join(p.name for p in spec.params)
     if _hemisphere(values[0]) and _hemisphere(values[1]):  # two decimal values, then more
-        raise CatalogError(f"#{spec.sms_word} takes {usage}; extra: {' '.join(values[2:])}")
+        raise _extra(spec, values[2:])
     if count > 4:
-        raise CatalogError(f"#{spec.sms_word} takes {usage}; extra: {' '.join(values[4:])}")
+        raise _extra(spec, values[4:])
     if count == 3:
         raise CatalogError(f"3 values for lat lon: give lat lon as {COORDINATE_FORMS}", field="lat")
+
+
+def _extra(spec: catalog.CommandKind, extra: Sequence[str]) -> CatalogError:
+    usage = " ".join(p.name for p in spec.params)
+    return CatalogError(f"#{spec.sms_word} takes {usage}; extra: {' '.join(extra)}")
 
 
 def _signed(name: str, sign: str, hemisphere: str) -> float:
