@@ -343,6 +343,21 @@ def test_queries_and_refusals_are_never_merged() -> None:
     ]
 
 
+@given(st.lists(st.sampled_from(["#LIGHT ON", "#light on", "#LIGHT OFF", "#HOLD", "#FHEAD 230",
+                                  "#FHEAD 10", "#IR ON", "#WAYPOINT 1 -32 115"]), min_size=1,
+                max_size=40))  # fmt: skip
+def test_merging_keeps_each_kinds_last_order_and_counts_every_command(texts: list[str]) -> None:
+    items = parse(";".join(texts), table=ALL_ENABLED)  # at most 8 distinct: all read
+    alone = [one(t) for t in texts]
+    last = {i.command: (i.command, dict(i.params)) for i in alone}
+    assert {i.command: (i.command, dict(i.params)) for i in items} == last
+    assert sum(i.repeats for i in items) == len(texts)
+    keys = [(i.command, repr(i.params)) for i in items]
+    assert len(set(keys)) == len(keys)
+    where = [max(n for n, a in enumerate(alone) if (a.command, repr(a.params)) == k) for k in keys]
+    assert where == sorted(where)  # each where it was given last, in that order
+
+
 def test_the_note_on_repeats_stays_within_one_sms() -> None:
     text = "\n".join(f"#WAYPOINT {i} -32.0345 115.3326\n#WAYPOINT {i} -32.0345 115.3326"
                      for i in range(1, 9))  # fmt: skip
