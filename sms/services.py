@@ -230,8 +230,8 @@ def _handle(
     if until is not None:
         message.authorised = True
         limit = f"more than {settings.SMS_RATE_LIMIT} in {settings.SMS_RATE_WINDOW_S} s"
-        logged = _logged(message, Outcome.RATE_LIMITED, f"{limit}; answered again from "
-                         f"{until:%Y-%m-%d %H:%M:%S} UTC")  # fmt: skip
+        again = f"answered again from {until.astimezone(dt.UTC):%Y-%m-%d %H:%M:%S} UTC"
+        logged = _logged(message, Outcome.RATE_LIMITED, f"{limit}; {again}")
         notice = _rate_notice(message, entry, until, send_replies=send_replies)
         return replace(logged, replies=(notice,) if notice else ())
     items = language.parse(text, vessel_kind=vessel.kind, table=table)
