@@ -349,8 +349,8 @@ MISSION_MAX_LEG_M = env_int("MISSION_MAX_LEG_M", 50_000)
 DATA_UPLOAD_MAX_MEMORY_SIZE = env_int("DATA_UPLOAD_MAX_MEMORY_SIZE", 10 * 1024 * 1024)
 
 # SMS control (sms app): national numbers ("0412 345 678") are read in this ISO 3166 region;
-# one number may send SMS_RATE_LIMIT messages per SMS_RATE_WINDOW_S (0 = no limit), past that
-# they are logged and not answered.
+# one number may send SMS_RATE_LIMIT answered messages per SMS_RATE_WINDOW_S (0 = no limit), past
+# that they are logged and not answered (one notice says until when).
 SMS_DEFAULT_REGION = os.environ.get("SMS_DEFAULT_REGION", "").strip().upper() or "AU"
 if SMS_DEFAULT_REGION not in phonenumbers.SUPPORTED_REGIONS:
     raise ValueError(

@@ -10,6 +10,7 @@ Pure: no Django, no I/O. The command words, parameters and ranges are the comman
 is SMS-specific:
 
 * several commands per SMS, one per line or separated by ``;`` (at most ``MAX_COMMANDS``);
+  identical ones are taken once (``_merge_repeats``);
 * a catalog word with no values is a query (``#LIGHT``); ``#STATUS`` and ``#HELP [word]``;
 * coordinates as seamen write them (see ``_coordinates``): decimal degrees ``-32.0380 115.3325``
   or ``32.0380S 115.3325E``; degrees and decimal minutes ``32 02.28S 115 19.95E``,
@@ -27,7 +28,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
@@ -79,6 +80,7 @@ class Item:
     error: str = ""
     answer: str = ""  # what the language answers by itself (#HELP)
     commanding: bool = False
+    repeats: int = 1  # a command given this many times in the SMS, taken once
 
     def as_dict(self) -> dict[str, Any]:
         data: dict[str, Any] = {"kind": self.kind.value, "text": self.echo}
@@ -88,6 +90,8 @@ class Item:
             data["params"] = dict(self.params)
         if self.error:
             data["error"] = self.error
+        if self.repeats > 1:
+            data["repeats"] = self.repeats
         return data
 
 
@@ -98,6 +102,12 @@ class Answer:
     echo: str
     outcome: str
     error: bool = False
+    note: str = ""  # said after the outcome, whatever it becomes ("(12 identical … once)")
+
+    @property
+    def said(self) -> str:
+        """The outcome as the reply gives it, with the note."""
+        return f"{self.outcome} {self.note}" if self.note else self.outcome
 
 
 # -- parsing ----------------------------------------------------------------------------------
@@ -122,10 +132,75 @@ def parse(
     segments = [s for line in text.splitlines() for s in line.split(";") if s.strip()]
     if not segments:
         return [_error("", "empty message; send #HELP for the commands")]
-    items = [_parse_command(s, vessel_kind, table) for s in segments[:MAX_COMMANDS]]
-    if len(segments) > MAX_COMMANDS:
-        extra = len(segments) - MAX_COMMANDS
-        items.append(_error("", f"{extra} more not read: at most {MAX_COMMANDS} per SMS"))
+    if len(segments) <= MAX_COMMANDS:  # most SMS: a few commands, each parsed
+        parsed = [_parse_command(s, vessel_kind, table) for s in segments]
+    else:  # one parse per distinct text: a flood of one command costs one (MAX_TEXT bounds it)
+        seen: dict[str, Item] = {}
+        parsed = []
+        for segment in segments:
+            key = " ".join(segment.split())
+            if key not in seen:
+                seen[key] = _parse_command(segment, vessel_kind, table)
+            parsed.append(seen[key])
+    if len(parsed) == 1:
+        return parsed
+    return _merge_repeats(parsed)
+
+
+def _identity(item: Item) -> tuple[str, str] | None:
+    """What makes two commands identical (kind and exact params); None for anything else.
+
+    The catalog builds a kind's params in one order, so their repr compares them exactly
+    (floats to the last digit: the echo's 4 decimals could join two different positions).
+    """
+    if item.kind != ItemKind.COMMAND:
+        return None
+    return item.command, repr(item.params)
+
+
+def _merge_repeats(parsed: Sequence[Item]) -> list[Item]:
+    """The items read from one SMS, identical commands taken once (issue 16 §6: twelve
+    ``#HOLD`` made ten commands, nine of them superseded at once).
+
+    1. The first ``MAX_COMMANDS`` distinct items, by first appearance, are read; the rest are
+       refused together (``3 more not read``). A repeat of a command read is not counted.
+    2. A command given several times stands once, where it was given last, with ``repeats``
+       saying how often: the SMS still ends where it asked (``#LIGHT ON; #LIGHT OFF; #LIGHT
+       ON`` leaves the light on; ``#HOLD; #FHEAD 230; #HOLD`` holds).
+    3. Queries, #STATUS, #HELP and refusals are never merged: each is answered where it stands.
+    """
+    if len(parsed) <= MAX_COMMANDS:
+        # Identical commands have the same echo: different echoes, nothing to merge.
+        echoes = [item.echo for item in parsed if item.kind == ItemKind.COMMAND]
+        if len(set(echoes)) == len(echoes):
+            return list(parsed)
+    keys = [_identity(item) for item in parsed]
+    counts: dict[tuple[str, str], int] = {}
+    last: dict[tuple[str, str], int] = {}
+    read: set[int] = set()  # indices of the first appearances read
+    not_read = 0
+    for index, key in enumerate(keys):
+        if key is not None and key in counts:
+            counts[key] += 1
+            last[key] = index
+            continue
+        if key is not None:
+            counts[key], last[key] = 1, index
+        if len(read) < MAX_COMMANDS:
+            read.add(index)
+        elif key is None:
+            not_read += 1  # an unread command is counted below, with its repeats
+    read_keys = {keys[i] for i in read} - {None}
+    items: list[Item] = []
+    for index, (item, key) in enumerate(zip(parsed, keys, strict=True)):
+        if key is None:
+            if index in read:
+                items.append(item)
+        elif key in read_keys and last[key] == index:
+            items.append(item if counts[key] == 1 else replace(item, repeats=counts[key]))
+    not_read += sum(n for key, n in counts.items() if key not in read_keys)
+    if not_read:
+        items.append(_error("", f"{not_read} more not read: at most {MAX_COMMANDS} per SMS"))
     return items
 
 
@@ -230,6 +305,7 @@ _MINUTES = re.compile(r"([0-9]{1,2}(?:\.[0-9]*)?)([NSEWnsew]?)")
 _HEMISPHERES = {"lat": ("N", "S"), "lon": ("E", "W")}
 _LETTERS = frozenset("NSEW")
 MINUTES_PER_DEGREE = 60
+LAT_MAX = 90  # degrees: more can only be a longitude's
 COORDINATE_FORMS = "-32.0380 115.3325 or 32 02.28S 115 19.95E"
 
 
@@ -255,13 +331,82 @@ def _coordinates(spec: catalog.CommandKind, args: Sequence[str]) -> list[str]:
         else:
             values.append(token)
     head = list(args[:lead])
+    try:
+        _check_arity(spec, values)
+    except CatalogError:
+        if _numbers(params[:lead], head):
+            raise
+        return [*head, *values]  # the catalog names what is wrong with the leading values
     if len(values) == 2:
         return [*head, _decimal(values[0], "lat"), _decimal(values[1], "lon")]
-    if len(values) == 4:
-        return [*head, _minutes(values[0], values[1], "lat"), _minutes(values[2], values[3], "lon")]
-    if len(values) < 2:
-        return [*head, *values]  # the catalog names the missing value
-    raise CatalogError(f"give lat lon as {COORDINATE_FORMS}", field="lat")
+    return [*head, _minutes(values[0], values[1], "lat"), _minutes(values[2], values[3], "lon")]
+
+
+def _numbers(params: Sequence[catalog.Param], tokens: Sequence[str]) -> bool:
+    """Whether the values before lat lon are numbers where numbers are due (``#WAYPOINT 1``)."""
+    for param, token in zip(params, tokens, strict=False):
+        try:
+            if param.kind == "int":
+                int(token)
+            elif param.kind == "float":
+                float(token)
+        except ValueError:
+            return False
+    return True
+
+
+def _hemisphere(token: str) -> str:
+    letter = token[-1:].upper()
+    return letter if letter in _LETTERS else ""
+
+
+def _one_in_minutes(values: Sequence[str], letters: str) -> bool:
+    """``32 02.28S``: two values that are one coordinate in degrees and minutes, its letter
+    one of ``letters`` (a decimal pair never ends with N or S in the lon's place)."""
+    degrees, minutes = _DEGREES.fullmatch(values[0]), _MINUTES.fullmatch(values[1])
+    return (
+        degrees is not None
+        and minutes is not None
+        and minutes.group(2).upper() in letters
+        and float(minutes.group(1)) < MINUTES_PER_DEGREE
+    )
+
+
+def _check_arity(spec: catalog.CommandKind, values: Sequence[str]) -> None:
+    """Raise a CatalogError naming what is missing or extra when ``values`` are not one
+    latitude and one longitude in the same form (2 decimal values or 4 in degrees and minutes).
+
+    Hemisphere letters tell which coordinate was given: ``32 02.28S`` is a latitude alone
+    (issue 16 §15: it was read as lat 32, lon 2.28S, and refused for the letter), ``115 19.95E``
+    a longitude alone when its degrees are past any latitude.
+    """
+    count = len(values)
+    if count == 0:
+        raise CatalogError("latitude and longitude missing", field="lat")
+    if count == 1:
+        if _hemisphere(values[0]) in ("E", "W"):
+            raise CatalogError("latitude missing", field="lat")
+        raise CatalogError("longitude missing", field="lon")
+    if count == 2:
+        second = _hemisphere(values[1])
+        if not second or _hemisphere(values[0]):  # the usual pair: nothing to look into
+            return
+        if second in "NS" and _one_in_minutes(values, "NS"):
+            raise CatalogError("longitude missing", field="lon")
+        if _one_in_minutes(values, "EW") and int(values[0].lstrip("+-")) > LAT_MAX:
+            raise CatalogError("latitude missing", field="lat")
+        return
+    if _hemisphere(values[0]) and _hemisphere(values[1]):  # two decimal values, then more
+        raise _extra(spec, values[2:])
+    if count > 4:
+        raise _extra(spec, values[4:])
+    if count == 3:
+        raise CatalogError(f"3 values for lat lon: give lat lon as {COORDINATE_FORMS}", field="lat")
+
+
+def _extra(spec: catalog.CommandKind, extra: Sequence[str]) -> CatalogError:
+    usage = " ".join(p.name for p in spec.params)
+    return CatalogError(f"#{spec.sms_word} takes {usage}; extra: {' '.join(extra)}")
 
 
 def _signed(name: str, sign: str, hemisphere: str) -> float:
@@ -302,6 +447,12 @@ def _minutes(degrees: str, minutes: str, name: str) -> str:
 
 def answer_error(item: Item) -> Answer:
     return Answer(item.echo, f"ERR {item.error}", error=True)
+
+
+def answer_command(item: Item, outcome: str, *, error: bool = False) -> Answer:
+    """A command's answer (``QUEUED``, ``ERR …``), saying when the SMS gave it several times."""
+    note = f"({item.repeats} identical commands in this SMS taken once)" if item.repeats > 1 else ""
+    return Answer(item.echo, outcome, error=error, note=note)
 
 
 def answer_help(item: Item) -> Answer:
@@ -363,11 +514,12 @@ def _septets(text: str) -> int:
 
 
 def _render(answer: Answer, room: int) -> str:
-    if _PLAIN.fullmatch(answer.echo) and _PLAIN.fullmatch(answer.outcome):
-        text = " ".join([*answer.echo.split(), *answer.outcome.split()])
+    said = answer.said
+    if _PLAIN.fullmatch(answer.echo) and _PLAIN.fullmatch(said):
+        text = " ".join([*answer.echo.split(), *said.split()])
         if len(text) <= room:
             return text  # the usual reply: plain and short
-    echo, outcome = _fields(answer.echo), _fields(answer.outcome)
+    echo, outcome = _fields(answer.echo), _fields(said)
     if _length(echo) + 1 + _length(outcome) <= room:
         return " ".join([*echo, *outcome])
     outcome = _prefix(outcome, room - ECHO_ROOM, lambda _n: "...")

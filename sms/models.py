@@ -100,8 +100,9 @@ class SmsMessage(models.Model):
     modem_timestamp = models.DateTimeField(
         null=True, blank=True, help_text="The service centre time stamp the modem reported."
     )
-    # SHA-256 of (vessel, number, text, modem timestamp): the same delivery twice is handled
-    # once (a modem re-reads its store after a restart). Empty without a modem time stamp.
+    # Incoming: SHA-256 of (vessel, number, text, modem timestamp): the same delivery twice is
+    # handled once (a modem re-reads its store after a restart). Empty without a modem time
+    # stamp. Outgoing: "rate:<number>:<until>" on a rate limit notice, sent once per block.
     delivery_key = models.CharField(max_length=64, null=True, blank=True, unique=True)
     received_at = models.DateTimeField(null=True, blank=True)
     created_at = models.DateTimeField(auto_now_add=True)
@@ -129,11 +130,12 @@ class SmsMessage(models.Model):
             # The admin's log, newest first, all vessels or one.
             models.Index(fields=["-created_at"], name="sms_created_desc"),
             models.Index(fields=["vessel", "-created_at"], name="sms_vessel_created"),
-            # Rate limiting: one number's incoming messages in a time window.
+            # Rate limiting (sms.services._rate_limited_until): one number's incoming messages
+            # in a time window that count, the ones it held back left out.
             models.Index(
                 fields=["number_e164", "received_at"],
-                condition=Q(direction="in"),
-                name="sms_in_by_number",
+                condition=Q(direction="in") & ~Q(outcome="rate_limited"),
+                name="sms_in_rate_count",
             ),
             # The modem loop's queue (sms_outgoing_pending).
             models.Index(

@@ -7,12 +7,13 @@ to the sender, never silently); ``sms.bridge.commands`` (the result_detail texts
 ``no answer from the C&C box``).
 
 A held reply keeps its answers as JSON (``SmsMessage.parsed`` of the outgoing message):
-``{"echo", "outcome", "error", "command"}`` where ``command`` is the pk of the command whose
-outcome replaces ``outcome`` once it ends. Pure: no Django, no I/O.
+``{"echo", "outcome", "error", "note", "command"}`` where ``command`` is the pk of the command
+whose outcome replaces ``outcome`` once it ends (``note`` stays after it). Pure: no Django, no I/O.
 """
 
 from __future__ import annotations
 
+import datetime as dt
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -54,6 +55,8 @@ def answer_record(answer: Answer, command: int | None = None) -> dict[str, Any]:
     record: dict[str, Any] = {"echo": answer.echo, "outcome": answer.outcome}
     if answer.error:
         record["error"] = True
+    if answer.note:
+        record["note"] = answer.note
     if command is not None:
         record["command"] = command
     return record
@@ -78,7 +81,8 @@ def settle(
             else:
                 outcome = settled
                 error = settled.startswith(FAILED)
-        answers.append(Answer(str(record.get("echo", "")), outcome, error=error))
+        note = str(record.get("note", ""))
+        answers.append(Answer(str(record.get("echo", "")), outcome, error=error, note=note))
     return compose_reply(answers), ended
 
 
@@ -105,3 +109,29 @@ def readings_text(readings: Mapping[str, Any]) -> str:
             else:
                 parts.append(text.lstrip("/"))
     return " ".join(parts)
+
+
+_WINDOW_UNITS = (("day", 86400), ("h", 3600), ("min", 60))
+
+
+def _window(seconds: int) -> str:
+    for unit, size in _WINDOW_UNITS:
+        if seconds % size == 0:
+            count = seconds // size
+            return f"{count} {unit}{'s' if unit == 'day' and count != 1 else ''}"
+    return f"{seconds} s"
+
+
+def rate_limit_notice(*, limit: int, window_s: int, until: dt.datetime, now: dt.datetime) -> str:
+    """The one SMS a number gets when it reaches the rate limit: the limit and when its texts
+    are answered again, in UTC to the minute, rounded up so that the time given is never early
+    (the date too when it is not today's)."""
+    until = until.astimezone(dt.UTC)
+    minute = until.replace(second=0, microsecond=0)
+    if until > minute:
+        minute += dt.timedelta(minutes=1)
+    today = now.astimezone(dt.UTC).date()
+    when = f"{minute:%H:%M} UTC" if minute.date() == today else f"{minute:%Y-%m-%d %H:%M} UTC"
+    return (
+        f"SMS limit reached ({limit} per {_window(window_s)}): texts are not answered until {when}."
+    )

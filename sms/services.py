@@ -11,7 +11,7 @@ import hashlib
 import logging
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import phonenumbers
@@ -127,7 +127,9 @@ def sms_handle_incoming(
        re-reading its store) returns what the first one got and creates nothing.
     2. The sender is looked up by E.164 number: a stranger, an inactive, expired or other
        vessel's number is logged and gets no reply at all (a stranger learns nothing).
-    3. A number past SMS_RATE_LIMIT messages in SMS_RATE_WINDOW_S is logged, not answered.
+    3. A number past SMS_RATE_LIMIT answered messages in SMS_RATE_WINDOW_S is logged, not
+       answered; the first such text gets one notice saying when it is answered again
+       (:func:`_rate_notice`), the others nothing.
     4. The text is parsed (:mod:`sms.language`, checked against the glider's inner command
        ``table``, the shipped one by default); a query-role number that commands is refused.
     5. Commands are queued (source ``sms``, created by the number), queries answered from
@@ -224,10 +226,14 @@ def _handle(
         return _logged(message, Outcome.STRANGER)
     if refusal:
         return _logged(message, Outcome.REFUSED, refusal)
-    if _over_rate(e164, received_at):
+    until = _rate_limited_until(e164, received_at)
+    if until is not None:
         message.authorised = True
         limit = f"more than {settings.SMS_RATE_LIMIT} in {settings.SMS_RATE_WINDOW_S} s"
-        return _logged(message, Outcome.RATE_LIMITED, limit)
+        again = f"answered again from {until.astimezone(dt.UTC):%Y-%m-%d %H:%M:%S} UTC"
+        logged = _logged(message, Outcome.RATE_LIMITED, f"{limit}; {again}")
+        notice = _rate_notice(message, entry, until, send_replies=send_replies)
+        return replace(logged, replies=(notice,) if notice else ())
     items = language.parse(text, vessel_kind=vessel.kind, table=table)
     message.parsed = [item.as_dict() for item in items]
     if entry.role != Role.CONTROL and any(item.commanding for item in items):
@@ -298,19 +304,74 @@ def _identify(e164: str, vessel: Vessel, now: dt.datetime) -> tuple[AuthorisedNu
     return entry, ""
 
 
-def _over_rate(e164: str, now: dt.datetime) -> bool:
-    limit = settings.SMS_RATE_LIMIT
+def _rate_limited_until(e164: str, now: dt.datetime) -> dt.datetime | None:
+    """When the number's texts are answered again, or None when this one is answered.
+
+    Only the messages the limit let through count (not the ones it held back): so the time a
+    notice gives stays true however often the number texts meanwhile. With the limit-th newest
+    of them at ``t``, a text at ``t + window`` or later finds fewer than the limit in its window.
+    """
+    limit, window = settings.SMS_RATE_LIMIT, settings.SMS_RATE_WINDOW_S
     if limit <= 0:
-        return False
-    since = now - dt.timedelta(seconds=settings.SMS_RATE_WINDOW_S)
-    # At most ``limit`` rows of the partial index sms_in_by_number (direction 'in' written as
-    # the index's own literal so the planner can use it): bounded however many a flood sent.
-    recent = _scalar(
-        f"SELECT COUNT(*) FROM (SELECT 1 FROM {_SMS} WHERE direction = 'in' AND "
-        "number_e164 = %s AND received_at > %s AND received_at <= %s LIMIT %s) AS recent",
-        [e164, _stamp(since), _stamp(now), limit],
+        return None
+    since = now - dt.timedelta(seconds=window)
+    # The limit-th row, newest first, of the partial index sms_in_rate_count (its condition
+    # written as the index's own literals so the planner can use it): bounded however many a
+    # flood sent.
+    oldest = _scalar(
+        f"SELECT received_at FROM {_SMS} WHERE direction = 'in' AND NOT outcome = "
+        "'rate_limited' AND number_e164 = %s AND received_at > %s AND received_at <= %s "
+        "ORDER BY received_at DESC LIMIT 1 OFFSET %s",
+        [e164, _stamp(since), _stamp(now), limit - 1],
     )
-    return bool(recent is not None and recent >= limit)
+    if oldest is None:
+        return None
+    if isinstance(oldest, str):  # SQLite hands the raw text back
+        oldest = parse_datetime(oldest)
+    if timezone.is_naive(oldest):
+        oldest = timezone.make_aware(oldest, dt.UTC)
+    return oldest + dt.timedelta(seconds=window)
+
+
+def _rate_notice(
+    message: SmsMessage, entry: AuthorisedNumber, until: dt.datetime, *, send_replies: bool
+) -> SmsMessage | None:
+    """The one SMS telling a rate-limited number when it is answered again (issue 16 §14).
+
+    Once per ``until``: every text held back until then computes the same ``until`` (the
+    messages that count do not change meanwhile), and the notice's ``delivery_key`` names it,
+    so the unique index lets one notice in, whatever retries or a concurrent handler do. A
+    racing twin waits on PostgreSQL's index entry (SQLite: on the write lock) and then fails
+    inside its own savepoint, leaving the rest of its transaction whole.
+    """
+    key = f"rate:{message.number_e164}:{until.astimezone(dt.UTC):%Y%m%dT%H%M%S.%f}"
+    if _scalar(f"SELECT 1 FROM {_SMS} WHERE delivery_key = %s", [key]) is not None:
+        return None  # told already
+    text = replies.rate_limit_notice(
+        limit=settings.SMS_RATE_LIMIT,
+        window_s=settings.SMS_RATE_WINDOW_S,
+        until=until,
+        now=message.received_at or until,
+    )
+    try:
+        with transaction.atomic():
+            return SmsMessage.objects.create(
+                direction=Direction.OUT,
+                vessel=message.vessel,
+                number=message.number_e164,
+                number_e164=message.number_e164,
+                authorised_number=entry,
+                authorised=True,
+                text=text,
+                reply_to=message,
+                delivery_key=key,
+                status=SendStatus.PENDING if send_replies else SendStatus.NOT_SENT,
+                status_detail="rate limit notice"
+                if send_replies
+                else "rate limit notice shown by sms_inject, not sent",
+            )
+    except IntegrityError:
+        return None  # a concurrent text of the same number sent it
 
 
 # The three reads every SMS makes, written out: each is one indexed lookup, and the ORM's
@@ -354,10 +415,10 @@ def _carry_out(
                     created_by=sender,
                 )
             except CommandError as exc:  # the vessel was made inactive, …
-                answers.append(Answer(item.echo, f"ERR {exc.message}", error=True))
+                answers.append(language.answer_command(item, f"ERR {exc.message}", error=True))
                 continue
             queued.append((len(answers), command))
-            answers.append(Answer(item.echo, "QUEUED"))
+            answers.append(language.answer_command(item, "QUEUED"))
         elif item.kind == ItemKind.QUERY:
             answers.append(_answer_query(vessel, item))
         elif item.kind == ItemKind.STATUS:
@@ -379,7 +440,7 @@ def _say_superseded(answers: list[Answer], queued: list[tuple[int, Command]]) ->
     navigation = [(i, c) for i, c in queued if catalog.KINDS[c.kind].navigation]
     for index, command in navigation[:-1]:
         command.status = Status.SUPERSEDED
-        answers[index] = Answer(answers[index].echo, command.status.upper())
+        answers[index] = replace(answers[index], outcome=command.status.upper())
 
 
 def _values(command: Command) -> str:

@@ -71,6 +71,30 @@ def test_readings_are_spelled_short() -> None:
     assert replies.readings_text({}) == ""
 
 
+@pytest.mark.parametrize(
+    ("limit", "window_s", "until", "expected", "when"),
+    [
+        (10, 600, dt.datetime(2026, 11, 25, 6, 10, tzinfo=dt.UTC), "10 per 10 min", "06:10 UTC"),
+        # rounded up: a text at 06:10:00 would still be held back
+        (10, 600, dt.datetime(2026, 11, 25, 6, 10, 1, tzinfo=dt.UTC), "", "06:11 UTC"),
+        (5, 3600, dt.datetime(2026, 11, 25, 7, 0, tzinfo=dt.UTC), "5 per 1 h", "07:00 UTC"),
+        (5, 90, dt.datetime(2026, 11, 25, 6, 1, 30, tzinfo=dt.UTC), "5 per 90 s", "06:02 UTC"),
+        (5, 2 * 86400, dt.datetime(2026, 11, 27, 6, 0, tzinfo=dt.UTC), "5 per 2 days",
+         "2026-11-27 06:00 UTC"),
+        # another time zone's clock is given in UTC
+        (1, 60, dt.datetime(2026, 11, 25, 16, 1, tzinfo=dt.timezone(dt.timedelta(hours=10))),
+         "1 per 1 min", "06:01 UTC"),
+    ],
+)  # fmt: skip
+def test_the_rate_limit_notice_says_the_limit_and_when_in_utc(
+    limit: int, window_s: int, until: dt.datetime, expected: str, when: str
+) -> None:
+    text = replies.rate_limit_notice(limit=limit, window_s=window_s, until=until, now=T0)
+    assert text.endswith(f"texts are not answered until {when}.")
+    assert f"({expected})" in text or not expected
+    assert septets(text) <= SMS_SEPTETS
+
+
 # -- the service --------------------------------------------------------------------------------
 
 
@@ -148,3 +172,14 @@ def test_without_a_window_the_reply_says_queued_at_once(glider: Vessel, phone: s
         SendStatus.PENDING,
         [("pending", "#FHEAD 230 QUEUED")],
     )
+
+
+def test_a_held_reply_keeps_its_note_on_identical_commands_once_settled(
+    glider: Vessel, phone: str
+) -> None:
+    text_in(glider, ";".join(["#HOLD"] * 12))
+    end(Command.objects.get(), ok=True)  # one command, not twelve
+    sms_replies_due(vessel=glider, now=T0)
+    assert outgoing(glider) == [
+        ("pending", "#HOLD OK (12 identical commands in this SMS taken once)")
+    ]

@@ -19,6 +19,7 @@ from sms.language import (
     Answer,
     Item,
     ItemKind,
+    answer_command,
     answer_error,
     answer_help,
     compose_reply,
@@ -60,7 +61,7 @@ def reply_to(items: list[Item]) -> str:
     answers = []
     for item in items:
         if item.kind == ItemKind.COMMAND:
-            answers.append(Answer(item.echo, "QUEUED"))
+            answers.append(answer_command(item, "QUEUED"))
         elif item.kind == ItemKind.HELP:
             answers.append(answer_help(item))
         elif item.kind == ItemKind.ERROR:
@@ -287,9 +288,82 @@ def test_a_bad_command_does_not_lose_the_good_ones_beside_it() -> None:
 
 
 def test_at_most_ten_commands_are_read_and_the_rest_refused_together() -> None:
-    items = parse(";".join(["#LIGHT ON"] * (MAX_COMMANDS + 3)), table=SHIPPED)
+    items = parse(";".join(f"#FHEAD {i}" for i in range(MAX_COMMANDS + 3)), table=SHIPPED)
     assert len(items) == MAX_COMMANDS + 1
     assert items[-1].error == f"3 more not read: at most {MAX_COMMANDS} per SMS"
+
+
+# --- identical commands in one SMS (issue 16 §6) ---
+
+
+def test_twelve_identical_commands_are_one_command_and_the_reply_says_so() -> None:
+    items = parse(";".join(["#HOLD"] * 12), table=SHIPPED)
+    assert [(i.kind, i.command, i.repeats) for i in items] == [(ItemKind.COMMAND, "hold", 12)]
+    assert items[0].as_dict()["repeats"] == 12
+    assert reply_to(items) == "#HOLD QUEUED (12 identical commands in this SMS taken once)"
+
+
+def test_commands_are_identical_by_kind_and_values_whatever_their_spelling() -> None:
+    items = parse(
+        "#WAYPOINT 1 -32.0380 115.3325\n#waypoint 1 32 02.28S 115 19.95E; #WAYPOINT 2 -32 115",
+        table=SHIPPED,
+    )
+    assert [(i.echo, i.repeats) for i in items] == [
+        ("#WAYPOINT 1 -32.0380 115.3325", 2),
+        ("#WAYPOINT 2 -32.0000 115.0000", 1),
+    ]
+
+
+def test_a_repeated_command_stands_where_it_was_given_last_so_the_sms_ends_as_asked() -> None:
+    items = parse("#LIGHT ON; #LIGHT OFF; #LIGHT ON; #HOLD; #FHEAD 230; #HOLD", table=SHIPPED)
+    assert [(i.echo, i.repeats) for i in items] == [
+        ("#LIGHT OFF", 1),
+        ("#LIGHT ON", 2),
+        ("#FHEAD 230", 1),
+        ("#HOLD", 2),
+    ]
+
+
+def test_repeats_of_a_command_read_do_not_count_towards_the_ten() -> None:
+    text = ";".join(["#HOLD"] * 5 + [f"#FHEAD {i}" for i in range(MAX_COMMANDS)] + ["#HOLD"])
+    items = parse(text, table=SHIPPED)
+    assert len(items) == MAX_COMMANDS + 1
+    assert items[-1].error == f"1 more not read: at most {MAX_COMMANDS} per SMS"
+    assert (items[-2].echo, items[-2].repeats) == ("#HOLD", 6)
+    assert "#FHEAD 9" not in [i.echo for i in items]
+
+
+def test_queries_and_refusals_are_never_merged() -> None:
+    items = parse("#LIGHT; #LIGHT; #RUDDER 45; #RUDDER 45", table=SHIPPED)
+    assert [(i.kind, i.repeats) for i in items] == [
+        (ItemKind.QUERY, 1),
+        (ItemKind.QUERY, 1),
+        (ItemKind.ERROR, 1),
+        (ItemKind.ERROR, 1),
+    ]
+
+
+@given(st.lists(st.sampled_from(["#LIGHT ON", "#light on", "#LIGHT OFF", "#HOLD", "#FHEAD 230",
+                                  "#FHEAD 10", "#IR ON", "#WAYPOINT 1 -32 115"]), min_size=1,
+                max_size=40))  # fmt: skip
+def test_merging_keeps_each_kinds_last_order_and_counts_every_command(texts: list[str]) -> None:
+    items = parse(";".join(texts), table=ALL_ENABLED)  # at most 8 distinct: all read
+    alone = [one(t) for t in texts]
+    last = {i.command: (i.command, dict(i.params)) for i in alone}
+    assert {i.command: (i.command, dict(i.params)) for i in items} == last
+    assert sum(i.repeats for i in items) == len(texts)
+    keys = [(i.command, repr(i.params)) for i in items]
+    assert len(set(keys)) == len(keys)
+    where = [max(n for n, a in enumerate(alone) if (a.command, repr(a.params)) == k) for k in keys]
+    assert where == sorted(where)  # each where it was given last, in that order
+
+
+def test_the_note_on_repeats_stays_within_one_sms() -> None:
+    text = "\n".join(f"#WAYPOINT {i} -32.0345 115.3326\n#WAYPOINT {i} -32.0345 115.3326"
+                     for i in range(1, 9))  # fmt: skip
+    reply = reply_to(parse(text, table=SHIPPED))
+    assert typeable_sms(reply)
+    assert reply.startswith("#WAYPOINT 1 -32.0345 115.3326 QUEUED (2 identical commands in this")
 
 
 def test_an_empty_or_oversized_message_is_one_error() -> None:
@@ -369,13 +443,44 @@ def test_northern_and_western_hemispheres() -> None:
         ("-32.038 115.3325N", "lon takes E or W, not N"),
         ("-32 02.28 115", "give lat lon as -32.0380 115.3325 or 32 02.28S 115 19.95E"),
         ("32.5 02.28S 115 19.95E", "lat must be degrees and minutes as in"),
-        ("-32.0380", "#WAYPOINT needs lon"),
     ],
 )
 def test_coordinate_mistakes_are_named(coordinates: str, error: str) -> None:
     item = one(f"#WAYPOINT 1 {coordinates}")
     assert item.kind == ItemKind.ERROR
     assert error in item.error
+
+
+@pytest.mark.parametrize(
+    ("text", "error"),
+    [
+        # issue 16 §15: was "lon takes E or W, not S"
+        ("#WAYPOINT 1 32 02.28S", "longitude missing"),
+        ("#WAYPOINT 1 32 02.28 S", "longitude missing"),
+        ("#WAYPOINT 1 -32.0380", "longitude missing"),
+        ("#WAYPOINT 1 32.0380S", "longitude missing"),
+        ("#WAYPOINT 1 115.3325E", "latitude missing"),
+        ("#WAYPOINT 1 115 19.95E", "latitude missing"),
+        ("#WAYPOINT 1", "latitude and longitude missing"),
+        ("#WAYPOINT 1 32.038S 115.3325E 7", "#WAYPOINT takes index lat lon; extra: 7"),
+        ("#WAYPOINT 1 32 02.28S 115 19.95E 7 8", "#WAYPOINT takes index lat lon; extra: 7 8"),
+        ("#WAYPOINT 1 -32 02.28 115 19.95 7", "#WAYPOINT takes index lat lon; extra: 7"),
+        (
+            "#WAYPOINT 1 -32 02.28 115",
+            "3 values for lat lon: give lat lon as -32.0380 115.3325 or 32 02.28S 115 19.95E",
+        ),
+        ("#WAYPOINT x 32 02.28S", "index must be a number (got 'x')"),
+    ],
+)
+def test_a_missing_or_extra_coordinate_is_named(text: str, error: str) -> None:
+    item = one(text)
+    assert (item.kind, item.error) == (ItemKind.ERROR, error)
+    assert reply_to([item]) == f"{text} ERR {error}"
+
+
+def test_a_decimal_pair_is_still_a_pair_when_the_latitude_could_be_degrees() -> None:
+    item = one("#WAYPOINT 1 32 19.95E")  # 32° N, 19.95° E: a whole decimal position
+    assert (item.kind, item.params["lat"], item.params["lon"]) == (ItemKind.COMMAND, 32, 19.95)
 
 
 # --- replies: one SMS, every value, GSM-7 ---

@@ -6,9 +6,10 @@ import datetime as dt
 from io import StringIO
 
 import pytest
-from django.core.management import CommandError, call_command
+from django.core.management import CommandError, base, call_command, execute_from_command_line
 
 from commands.models import Command
+from sms.management.commands.sms_inject import NOT_ANSWERED
 from sms.models import AuthorisedNumber, SendStatus, SmsMessage
 from vessels.models import Vessel
 
@@ -92,12 +93,86 @@ def test_sms_inject_with_send_leaves_the_reply_for_the_modem(glider: Vessel) -> 
     assert SmsMessage.objects.get(direction="out").status == SendStatus.PENDING
 
 
-def test_sms_inject_prints_nothing_at_all_for_a_stranger(glider: Vessel) -> None:
-    out, err = run(
-        "sms_inject", "--vessel", "glider", "--from", "+61400000001", "--text", "#STATUS"
+def not_answered(*args: str) -> tuple[str, str]:
+    """sms_inject that must refuse: (what it printed, why on stderr)."""
+    out = StringIO()
+    with pytest.raises(CommandError) as refused:
+        call_command("sms_inject", *args, stdout=out, stderr=StringIO())
+    assert refused.value.returncode == NOT_ANSWERED
+    return out.getvalue(), str(refused.value)
+
+
+def test_sms_inject_says_on_stderr_why_a_stranger_gets_no_reply_and_exits_3(
+    glider: Vessel, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # As from a shell (argv, exit status, stderr); only its closing of every connection on
+    # the way out is left out, which would close the test database under the test.
+    monkeypatch.setattr(base.connections, "close_all", lambda: None)
+    argv = ["manage.py", "sms_inject", "--vessel", "glider", "--from", "+61400000001",
+            "--text", "#STATUS"]  # fmt: skip
+    with pytest.raises(SystemExit) as exited:
+        execute_from_command_line(argv)
+    assert exited.value.code == NOT_ANSWERED
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.endswith(  # after any system check warnings
+        "CommandError: no reply: +61400000001 is not an authorised number (logged as a stranger)\n"
     )
-    assert (out, err) == ("", "")
     assert SmsMessage.objects.get().outcome == "stranger"
+
+
+@pytest.mark.parametrize(
+    ("setup", "text", "reason"),
+    [
+        (["deauthorise_number", SKIPPER], "#STATUS", "no reply: refused (number inactive)"),
+        (["authorise_number", SKIPPER, "--vessel", "glider", "--role", "control", "--name", "S",
+          "--expires", "2020-01-01"], "#STATUS",
+         "no reply: refused (authorisation expired 2020-01-01 00:00 UTC)"),
+        (["authorise_number", SKIPPER, "--vessel", "spab", "--role", "control", "--name", "S"],
+         "#STATUS", "no reply: refused (not authorised for glider)"),
+        (["authorise_number", SKIPPER, "--vessel", "glider", "--role", "query", "--name", "S"],
+         "#FHEAD 230", "no reply: refused (query role: may not command)"),
+    ],
+)  # fmt: skip
+def test_sms_inject_names_why_a_known_number_is_refused(
+    glider: Vessel, vessel_a: Vessel, setup: list[str], text: str, reason: str
+) -> None:
+    run("authorise_number", SKIPPER, "--vessel", "glider", "--role", "control", "--name", "S")
+    run(*setup)
+    out, err = not_answered("--vessel", "glider", "--from", SKIPPER, "--text", text)
+    assert (out, err) == ("", reason)
+
+
+def test_sms_inject_prints_the_rate_limit_notice_once_then_says_why_it_is_silent(
+    glider: Vessel, settings: object
+) -> None:
+    settings.SMS_RATE_LIMIT = 1  # type: ignore[attr-defined]
+    run("authorise_number", SKIPPER, "--vessel", "glider", "--role", "control", "--name", "S")
+    args = ("--vessel", "glider", "--from", SKIPPER, "--text", "#STATUS")
+    assert run("sms_inject", *args)[0].startswith("#STATUS pos unknown")
+    out, err = not_answered(*args)
+    assert out.startswith("SMS limit reached (1 per 10 min): texts are not answered until ")
+    assert out.endswith(" UTC.\n")
+    assert err.startswith("rate limited (more than 1 in 600 s; answered again from ")
+    assert err.endswith("UTC); the notice printed is its one reply")
+    out, err = not_answered(*args)
+    assert out == ""
+    assert err.endswith("UTC); the number was told once already")
+
+
+def test_sms_inject_says_a_delivery_handled_before_is_not_answered_again(glider: Vessel) -> None:
+    run("authorise_number", SKIPPER, "--vessel", "glider", "--role", "control", "--name", "S")
+    args = ("--vessel", "glider", "--from", SKIPPER, "--text", "#FHEAD 230",
+            "--modem-timestamp", "2026-11-23T08:00:00+08:00")  # fmt: skip
+    assert run("sms_inject", *args)[0] == "#FHEAD 230 QUEUED\n"
+    out, err = not_answered(*args)
+    first = SmsMessage.objects.get(direction="in")
+    assert out == ""
+    assert err.startswith(f"no reply: delivered before (SMS {first.pk}, received ")
+    assert err.endswith(" UTC, accepted); handled once")
+    assert Command.objects.count() == 1
+    with pytest.raises(CommandError, match="is not a date-time with an offset"):
+        run("sms_inject", *args[:-1], "2026-11-23 08:00")
 
 
 def test_sms_inject_names_an_unknown_vessel(db: None) -> None:

@@ -339,11 +339,65 @@ def test_a_burst_from_one_number_is_rate_limited(
     results = [send(glider, f"#FHEAD {i}", received_at=BASE + dt.timedelta(seconds=i))
                for i in range(5)]  # fmt: skip
     assert [r.outcome for r in results] == [Outcome.ACCEPTED] * 3 + [Outcome.RATE_LIMITED] * 2
-    assert all(r.replies == () for r in results[3:])
     assert Command.objects.count() == 3
-    assert results[3].message.detail == "more than 3 in 60 s"
-    later = send(glider, "#FHEAD 99", received_at=BASE + dt.timedelta(seconds=61 + 4))
+    # The first 3 came at 08:00:00, :01 and :02: the oldest leaves the window at 08:01:00.
+    assert results[3].message.detail == (
+        "more than 3 in 60 s; answered again from 2026-11-23 08:01:00 UTC"
+    )
+    later = send(glider, "#FHEAD 99", received_at=BASE + dt.timedelta(seconds=60))
     assert later.outcome == Outcome.ACCEPTED
+
+
+def test_a_rate_limited_number_is_told_once_when_it_is_answered_again(
+    glider: Vessel, skipper: AuthorisedNumber, settings: Any
+) -> None:
+    settings.SMS_RATE_LIMIT, settings.SMS_RATE_WINDOW_S = 3, 600
+    at = [BASE + dt.timedelta(seconds=s) for s in (0, 1, 90, 100, 200, 599, 600)]
+    results = [send(glider, "#STATUS", received_at=t, modem_timestamp=t) for t in at]
+    assert [r.outcome for r in results] == ["accepted"] * 3 + ["rate_limited"] * 3 + ["accepted"]
+    notice = results[3].replies[0]
+    assert (
+        notice.text == "SMS limit reached (3 per 10 min): texts are not answered until 08:10 UTC."
+    )
+    assert (notice.direction, notice.status, notice.number) == ("out", "pending", SKIPPER)
+    assert notice.reply_to == results[3].message
+    assert sms_outgoing_pending(vessel=glider)[-2:] == [notice, results[6].replies[0]]
+    # Silence for the rest of the block: texts held back neither answer nor move it on.
+    assert [r.replies for r in results[4:6]] == [(), ()]
+    # A re-delivery of the text that got the notice gets nothing new.
+    again = send(glider, "#STATUS", received_at=at[3], modem_timestamp=at[3])
+    assert again.duplicate and again.replies == (notice,)
+    assert SmsMessage.objects.filter(text__startswith="SMS limit").count() == 1
+
+
+def test_a_new_block_gets_a_new_notice(
+    glider: Vessel, skipper: AuthorisedNumber, settings: Any
+) -> None:
+    settings.SMS_RATE_LIMIT, settings.SMS_RATE_WINDOW_S = 1, 60
+    texts = [send(glider, "#STATUS", received_at=BASE + dt.timedelta(seconds=s)).reply_texts
+             for s in (0, 10, 20, 65, 70, 75)]  # fmt: skip
+    assert texts[1] == ["SMS limit reached (1 per 1 min): texts are not answered until 08:01 UTC."]
+    assert texts[2] == [] and texts[5] == []
+    assert texts[4] == ["SMS limit reached (1 per 1 min): texts are not answered until 08:03 UTC."]
+
+
+def test_sms_inject_shows_the_notice_but_never_sends_it(
+    glider: Vessel, skipper: AuthorisedNumber, settings: Any
+) -> None:
+    settings.SMS_RATE_LIMIT = 1
+    send(glider, "#STATUS", send_replies=False)
+    result = send(glider, "#STATUS", send_replies=False, received_at=BASE + dt.timedelta(seconds=1))
+    assert result.replies[0].status == SendStatus.NOT_SENT
+    assert sms_outgoing_pending(vessel=glider) == []
+
+
+def test_only_an_authorised_number_is_told_of_the_limit(
+    glider: Vessel, skipper: AuthorisedNumber, settings: Any
+) -> None:
+    settings.SMS_RATE_LIMIT = 1
+    for s in range(3):
+        send(glider, "#STATUS", number=STRANGER, received_at=BASE + dt.timedelta(seconds=s))
+    assert not SmsMessage.objects.filter(direction="out").exists()
 
 
 def test_a_rate_limit_of_zero_is_off(
@@ -351,6 +405,21 @@ def test_a_rate_limit_of_zero_is_off(
 ) -> None:
     settings.SMS_RATE_LIMIT = 0
     assert all(send(glider, "#STATUS").outcome == Outcome.ACCEPTED for _ in range(15))
+
+
+def test_identical_commands_in_one_sms_queue_one_command_none_superseded(
+    glider: Vessel, skipper: AuthorisedNumber
+) -> None:
+    result = send(glider, ";".join(["#HOLD"] * 12))  # issue 16 §6: made 10, 9 superseded
+    (command,) = Command.objects.all()
+    assert (command.kind, command.status) == ("hold", "queued")
+    assert result.commands == (command,)
+    assert result.reply_texts == ["#HOLD QUEUED (12 identical commands in this SMS taken once)"]
+    result.message.refresh_from_db()
+    assert result.message.parsed == [
+        {"kind": "command", "text": "#HOLD", "command": "hold", "repeats": 12}
+    ]
+    assert not CommandEvent.objects.filter(to_status="superseded").exists()
 
 
 # --- the outgoing queue the modem loop sends ---

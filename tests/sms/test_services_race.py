@@ -3,6 +3,7 @@ real transactions on a real database, in two threads."""
 
 from __future__ import annotations
 
+import datetime as dt
 import threading
 import time
 
@@ -58,3 +59,48 @@ def test_a_delivery_racing_its_twin_is_handled_once(glider: Vessel) -> None:
     assert results["second"].reply_texts == ["#FHEAD 230 QUEUED"]
     assert Command.objects.count() == 1
     assert SmsMessage.objects.count() == 2
+
+
+def test_two_texts_over_the_limit_at_once_give_one_notice(glider: Vessel, settings: object) -> None:
+    settings.SMS_RATE_LIMIT, settings.SMS_RATE_WINDOW_S = 1, 600  # type: ignore[attr-defined]
+    authorised_number_authorise(number="+61412345678", vessels=[glider], role="control", name="S")
+    sms_handle_incoming(
+        vessel=glider, number="+61412345678", text="#STATUS", received_at=BASE
+    )  # the one answered: the block runs to 08:10
+    stored, release = threading.Event(), threading.Event()
+    results: dict[str, object] = {}
+
+    def handle(seconds: int) -> object:
+        when = BASE + dt.timedelta(seconds=seconds)
+        return sms_handle_incoming(
+            vessel=glider, number="+61412345678", text=f"#LIGHT {seconds}",
+            received_at=when, modem_timestamp=when,
+        )  # fmt: skip
+
+    def deliver(name: str, seconds: int, hold_open: bool) -> None:
+        try:
+            if hold_open:
+                with transaction.atomic():
+                    results[name] = handle(seconds)
+                    stored.set()  # its notice written, not committed yet
+                    release.wait(10)
+            else:
+                results[name] = handle(seconds)
+        finally:
+            connection.close()
+
+    first = threading.Thread(target=deliver, args=("first", 10, True))
+    first.start()
+    assert stored.wait(10)
+    second = threading.Thread(target=deliver, args=("second", 11, False))
+    second.start()
+    time.sleep(HEAD_START_S)
+    release.set()
+    first.join(20)
+    second.join(20)
+
+    assert [results[n].outcome for n in ("first", "second")] == ["rate_limited"] * 2
+    assert len(results["first"].replies) == 1
+    assert results["second"].replies == ()
+    notices = SmsMessage.objects.filter(direction="out", text__startswith="SMS limit")
+    assert notices.count() == 1

@@ -87,3 +87,25 @@ def test_a_strangers_text_stays_out_of_the_info_log_but_in_the_sms_log(
     assert any("#FHEAD" in m for m in info)  # an authorised number's text is still logged
     stored = SmsMessage.objects.get(number="+61499999999")
     assert (stored.text, stored.outcome) == ("my private words", "stranger")
+
+
+def test_a_rate_limited_number_gets_one_notice_through_the_modem_then_silence(
+    glider: Vessel, sim: tuple[SimulatedModem, ModemServer], settings: object
+) -> None:
+    settings.SMS_RATE_LIMIT, settings.SMS_RATE_WINDOW_S = 1, 600  # type: ignore[attr-defined]
+    authorise(glider)
+    modem, server = sim
+    for text in ("#FHEAD", "#LIGHT", "#IR"):
+        modem.inject(QUERY, text)
+    link = link_for(glider, server.url)
+    received = SmsMessage.objects.filter(direction=Direction.IN)
+    assert wait_for(lambda: link.do_one_receive(0.2) is not None and received.count() == 3)
+    while link.do_one_send():
+        pass
+    link.modem.close()
+    texts = [s.text for s in modem.sent]
+    assert [s.number for s in modem.sent] == [QUERY, QUERY]
+    assert texts[0] == "#FHEAD unknown"
+    assert texts[1].startswith("SMS limit reached (1 per 10 min): texts are not answered until ")
+    outcomes = [m.outcome for m in received.order_by("pk")]
+    assert outcomes == ["accepted", "rate_limited", "rate_limited"]
