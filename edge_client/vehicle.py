@@ -73,6 +73,7 @@ class VehicleState:
     gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type
     sensors_health: tuple[int, int] | None = None  # SYS_STATUS (enabled, health) bits
     origin: tuple[float, float] | None = None  # GPS_GLOBAL_ORIGIN: the EKF origin is set
+    ekf_failsafe: bool = False  # the autopilot said "EKF failsafe" and not yet "… cleared"
     last_heartbeat: float | None = None  # time.monotonic()
     position_at: float | None = None  # time.monotonic() of the last GLOBAL_POSITION_INT fix
     was_silent: bool = False
@@ -204,8 +205,14 @@ class VehicleState:
 
     def on_statustext(self, msg: Any) -> None:
         text = msg.text if isinstance(msg.text, str) else msg.text.decode("ascii", "replace")
-        self.statustext.append(text.rstrip("\x00"))
+        text = text.rstrip("\x00")
+        self.statustext.append(text)
         self.statustext_count += 1
+        said = text.lower()
+        # Rover/ekf_check.cpp says "EKF failsafe" and "EKF failsafe cleared" (Copter words
+        # them "EKF Failsafe: changed to …" and "EKF Failsafe Cleared").
+        if said.startswith("ekf failsafe"):
+            self.ekf_failsafe = not said.startswith("ekf failsafe cleared")
         log.info("autopilot says: %s", text)
 
     def reading_handler(self, source: ReadingSource) -> Callable[[Any], None]:

@@ -317,11 +317,79 @@ def test_the_wait_for_a_position_ends_at_the_deadline_with_the_autopilots_reason
     executor.execute(c)
     ((status, detail),) = acks(outbox, c.uid)
     assert status == "failed"
-    assert detail == (
+    # (…; the autopilot last said: EKF failsafe) follows once the simulator has raised it.
+    assert detail.startswith(
         "autopilot refused mode RTL: FAILED (Flight mode change failed); not ready after 90 s: "
         "EKF in constant-position mode (no position yet)"
     )
     assert 1090 <= clock.now <= 1095 and sim.sim.mode_name == "HOLD"
+
+
+@pytest.mark.slow
+def test_a_command_arriving_during_boot_succeeds_once_the_ekf_failsafe_clears(
+    make_sim, make_link, outbox
+):
+    # Rover's start-up order: armed without a position, "EKF failsafe"; then the position
+    # ("EKF3 IMU0 is using GPS"), GUIDED still refused; "EKF failsafe cleared" 3 s later.
+    sim = make_sim(prearm_delay_s=0, position_delay_s=3.0, ekf_failsafe_s=3.0)
+    link = make_link(sim.endpoint)
+    config = CommandsConfig(arm_timeout_s=5, ready_timeout_s=30, acceptance_radius_m=5)
+    executor = Executor(link, outbox, config)
+    c = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    executor.execute(c)
+    assert statuses(outbox, c.uid) == ["acknowledged"], acks(outbox, c.uid)
+    said = list(link.state.statustext)
+    using_gps = said.index("EKF3 IMU0 is using GPS")
+    assert "EKF failsafe" in said[:using_gps]
+    # Refused once the position was there: the single retry of old ended the command here.
+    assert "Flight mode change failed" in said[using_gps : said.index("EKF failsafe cleared")]
+    assert sim.sim.mode_name == "GUIDED"
+    run_until_settled(executor)
+    assert statuses(outbox, c.uid) == ["acknowledged", "done"]
+
+
+def test_a_failsafe_that_never_clears_fails_at_the_deadline_in_the_autopilots_words(
+    make_sim, make_link, outbox
+):
+    sim = make_sim(prearm_delay_s=0, position_delay_s=NEVER, ekf_failsafe_s=NEVER)
+    link = make_link(sim.endpoint)
+    assert link.arm(5) == (True, "armed")
+    wait_until(lambda: link.state.ekf_failsafe, 5, 'the autopilot saying "EKF failsafe"')
+    sim.sim.position_delay_s = 0  # the position comes; the failsafe stays
+    wait_until(lambda: link.state.position_ready()[0], 5, "a position")
+    wait_until(lambda: "EKF3 IMU0 is using GPS" in link.state.statustext, 5, "the EKF's word")
+    clock = FakeClock()
+    config = CommandsConfig(arm_timeout_s=5, ready_timeout_s=30)
+    executor = Executor(link, outbox, config, clock=clock, sleep=clock.sleep)
+    c = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    executor.execute(c)
+    assert acks(outbox, c.uid) == [(
+        "failed",
+        "autopilot refused mode GUIDED: FAILED (Flight mode change failed); not ready after "
+        "30 s: the autopilot's EKF failsafe has not cleared; "
+        "the autopilot last said: EKF3 IMU0 is using GPS",
+    )]  # fmt: skip
+    assert 1030 <= clock.now <= 1032 and sim.sim.mode_name == "HOLD"
+
+
+def test_a_refusal_that_outlasts_the_start_up_fails_without_waiting_for_the_deadline(
+    make_sim, make_link, outbox
+):
+    sim = make_sim(prearm_delay_s=0)  # warm: position good, no failsafe
+    link = make_link(sim.endpoint)
+    wait_until(lambda: link.state.position_ready()[0], 5, "a position")
+    clock = FakeClock()
+    executor = Executor(link, outbox, CommandsConfig(arm_timeout_s=5), clock=clock,
+                        sleep=clock.sleep)  # fmt: skip
+    c = cmd("resume")  # AUTO without a mission: refused FAILED, as at start-up, but for good
+    executor.execute(c)
+    ((status, detail),) = acks(outbox, c.uid)
+    assert (status, detail) == (
+        "failed",
+        "autopilot refused mode AUTO: FAILED (AutoMode: no mission); still refused 5 s after "
+        "the position was good (EKF has a horizontal position)",
+    )
+    assert 1005 <= clock.now <= 1008  # asked again for a while, not for ready_timeout_s (120)
 
 
 def test_a_newer_navigation_command_replaces_the_active_one(
