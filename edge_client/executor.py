@@ -7,7 +7,8 @@ run again. A command that was running when the client died cannot be resumed saf
 next start it is acked ``failed`` with that reason.
 
 Acks go into the outbox (they survive an outage like fixes do): ``acknowledged`` when the
-autopilot has accepted the command, then ``done`` or ``failed`` with a reason a person can read.
+autopilot has accepted the command, then ``done`` or ``failed`` with a reason a person can read,
+or ``superseded`` when a newer navigation command (or a disarm) replaced it before it ended.
 
 Kind → action (mission-files.md for the Rover modes):
 ``move_to`` GUIDED + SET_POSITION_TARGET_GLOBAL_INT, done within the acceptance radius;
@@ -64,6 +65,7 @@ from edge_client.vehicle import CLOCK_SANE_AFTER
 log = logging.getLogger(__name__)
 
 ACKNOWLEDGED, DONE, FAILED = "acknowledged", "done", "failed"
+SUPERSEDED = "superseded"  # replaced here by a newer command before it ended
 # Modes in which Rover drives by itself: entering one arms first (when allowed).
 MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
 # Rover modes whose Mode::requires_position() is true (Rover/mode.h): refused until the EKF
@@ -334,7 +336,8 @@ class Executor:
     def _supersede(self, command: Command) -> None:
         if self.active is not None:
             old, self.active = self.active, None
-            self._ack(old.command, FAILED, f"replaced by {command.kind} command {command.uid}")
+            detail = f"replaced by {command.kind} command {command.uid}"
+            self._ack(old.command, SUPERSEDED, detail)
 
     def _ack(self, command: Command, status: str, detail: str) -> None:
         log.info("command %s: %s %s", command.uid, status, detail)

@@ -401,7 +401,10 @@ def test_a_newer_navigation_command_replaces_the_active_one(
     first, second = cmd("move_to", lat=NEAR[0], lon=NEAR[1]), cmd("hold")
     executor.execute(first)
     executor.execute(second)
-    assert acks(outbox, first.uid)[-1] == ("failed", f"replaced by hold command {second.uid}")
+    assert acks(outbox, first.uid)[-1] == (
+        "superseded",
+        f"replaced by hold command {second.uid}",
+    )
     assert statuses(outbox, second.uid) == ["acknowledged", "done"]
 
 
