@@ -56,6 +56,7 @@ from edge_client.mission import (
     MAV_CMD_NAV_WAYPOINT,
     MissionError,
     MissionItem,
+    WaypointNumbers,
     build_mission,
     result_name,
 )
@@ -560,6 +561,8 @@ class Executor:
         upload = self.link.upload_mission(items)
         if not upload.ok:
             raise CommandError(f"mission upload failed: {upload.error}")
+        # The fixes' waypoint readings count in the operator's numbers from now on.
+        state.waypoints = WaypointNumbers.of(items)
         self._ack(
             command,
             ACKNOWLEDGED,
@@ -577,9 +580,31 @@ class Executor:
             self._ack(command, DONE, "looping mission running in AUTO")
             return
         if p["end"] == "return_home":
-            self.active = Active(command, self._mission_home_watch(items, said))
-            return
-        self.active = Active(command, self._mission_end_watch(items, p["items"][-1], said))
+            watch = self._mission_home_watch(items, said)
+        else:
+            watch = self._mission_end_watch(items, p["items"][-1], said)
+        self.active = Active(command, self._with_progress(command, items, watch))
+
+    def _with_progress(
+        self,
+        command: Command,
+        items: list[MissionItem],
+        check: Callable[[], tuple[str, str] | None],
+    ) -> Callable[[], tuple[str, str] | None]:
+        """``check``, logging each item Rover reports done in the operator's numbers
+        ("reached waypoint 3 of 5"), not MAVLink's (which count home and speed changes)."""
+        state, numbers = self.link.state, WaypointNumbers.of(items)
+        logged: int | None = None
+
+        def progress() -> tuple[str, str] | None:
+            nonlocal logged
+            reached = state.last_reached
+            if reached is not None and reached != logged and numbers.number(reached):
+                logged = reached
+                log.info("command %s: reached %s", command.uid, numbers.describe(reached))
+            return check()
+
+        return progress
 
     def _mission_end_watch(
         self, items: list[MissionItem], end: dict[str, Any], said: int
@@ -590,23 +615,26 @@ class Executor:
         Rover then stops and stays in AUTO (MIS_DONE_BEHAVE 0); leaving AUTO first fails."""
         state = self.link.state
         last = max(i.seq for i in items if i.command == MAV_CMD_NAV_WAYPOINT)
+        numbers = WaypointNumbers.of(items)
+        complete = f"mission complete ({numbers.count} of {numbers.count})"
         radius = max(self.config.acceptance_radius_m, end["radius_m"])
         seen = ModeSeen("AUTO")
 
         def check() -> tuple[str, str] | None:
             nonlocal said
             if state.last_reached == last:
-                return DONE, f"mission complete: reached waypoint {last}"
+                return DONE, complete
             count = state.statustext_count
             heard, said = state.statustext_since(said), count
             if MISSION_COMPLETE in heard and state.mode == "AUTO":
-                return DONE, f"mission complete: the autopilot says so (waypoint {last})"
+                return DONE, f"{complete}: the autopilot says so"
             if seen.left(state.mode):
                 # Someone changed the mode; if it was right at the end, the mission is done.
                 near = state.distance_to(end["lat"], end["lon"])
                 if state.mission_seq == last and near is not None and near <= radius:
-                    return DONE, f"mission complete: {near:.1f} m from the last waypoint"
-                return FAILED, f"mode changed to {state.mode} at item {state.mission_seq}"
+                    return DONE, f"{complete}: {near:.1f} m from the last waypoint"
+                where = numbers.describe(state.mission_seq)
+                return FAILED, f"mode changed to {state.mode} on the way to {where}"
             return None
 
         return check
@@ -623,11 +651,15 @@ class Executor:
         """
         state = self.link.state
         rtl = items[-1].seq
+        count = WaypointNumbers.of(items).count
         home_reached = self._home_watch("AUTO", said, lambda: state.mission_seq == rtl)
 
         def check() -> tuple[str, str] | None:
             if state.last_reached == rtl:
-                return DONE, f"mission complete: home reached (item {rtl})"
-            return home_reached()
+                return DONE, f"mission complete ({count} of {count}), home reached"
+            outcome = home_reached()
+            if outcome is not None and outcome[0] == DONE:
+                return DONE, f"mission complete ({count} of {count}), {outcome[1]}"
+            return outcome
 
         return check

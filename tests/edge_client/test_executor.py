@@ -431,8 +431,42 @@ def test_mission_is_uploaded_with_home_first_and_run_to_the_end(
                                                 for w in WAYPOINTS]  # fmt: skip
     assert (stored[0].x, stored[0].y) == (round(START[0] * 1e7), round(START[1] * 1e7))
     run_until_settled(executor)
-    assert acks(outbox, c.uid)[-1] == ("done", "mission complete: reached waypoint 3")
+    assert acks(outbox, c.uid)[-1] == ("done", "mission complete (3 of 3)")
     assert sim.sim.mode_name == "AUTO" and sim.sim.complete  # Rover stops, still in AUTO
+
+
+# Five waypoints ~30 m apart, speed changes (to 20 m/s, the catalog's most) before 1 and 3.
+FIVE = [
+    {"lat": -31.9795 + (i % 2) * 0.00025, "lon": 115.8195 + i * 0.0001, "hold_s": 0,
+     "radius_m": None, "speed_mps": 20.0 if i in (0, 2) else None}
+    for i in range(5)
+]  # fmt: skip
+
+
+@pytest.mark.slow
+def test_mission_progress_is_in_the_operators_waypoint_numbers(
+    make_sim, make_link, outbox, commands_config, caplog
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("mission", mission_id=5, items=FIVE, end="stop")
+    caplog.set_level("INFO", logger="edge_client.executor")
+    executor.execute(c)
+    readings = []  # what the fixes say while it runs
+    deadline = time.monotonic() + 20
+    while executor.active is not None and time.monotonic() < deadline:
+        executor.watch()
+        readings.append(link.state.fix()["readings"])
+        time.sleep(0.02)
+    # Seven MAVLink items after home (two speed changes): the last waypoint is item 7.
+    assert [e.seq for e in sim.sim.events if e.kind == "reached"][-1] == 7
+    assert acks(outbox, c.uid)[-1] == ("done", "mission complete (5 of 5)")
+    on_the_way = {(r["mission_item"], r["waypoint"], r["waypoints"]) for r in readings
+                  if "waypoint" in r}  # fmt: skip
+    assert (5, 3, 5) in on_the_way and (7, 5, 5) in on_the_way
+    said = [r.getMessage() for r in caplog.records if "reached waypoint" in r.getMessage()]
+    assert said[-1] == f"command {c.uid}: reached waypoint 5 of 5"
 
 
 @pytest.mark.slow
