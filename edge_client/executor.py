@@ -61,7 +61,7 @@ from edge_client.mission import (
     result_name,
 )
 from edge_client.outbox import Outbox
-from edge_client.vehicle import CLOCK_SANE_AFTER
+from edge_client.vehicle import CLOCK_SANE_AFTER, VehicleState
 
 log = logging.getLogger(__name__)
 
@@ -80,6 +80,7 @@ MODE_RETRY_S = 2.0  # between looks at the vehicle's reports while it gets its p
 # checks at 10 Hz), and refuses until then.
 MODE_BACKOFF_FIRST_S = 0.5
 MODE_BACKOFF_MAX_S = 2.0
+PAUSE_STEP_S = 0.1  # how often a backoff looks whether the failsafe has cleared meanwhile
 # How long after the position is first seen good a refusal may still be the start-up one when
 # no "EKF failsafe" text was heard (it may have been sent before we listened): 5 x Rover's 1 s.
 # Later, it has another reason (AUTO without a mission…), and the command fails with it.
@@ -89,6 +90,10 @@ FINAL_REFUSALS = frozenset({2, 3})
 HEARTBEAT_WAIT_S = 0.5  # between looks for the autopilot's HEARTBEAT
 RTL_ARRIVED = "Reached destination"  # Rover/mode_rtl.cpp STATUSTEXT; a boat then loiters there
 MISSION_COMPLETE = "Mission Complete"  # Rover/mode_auto.cpp exit_mission STATUSTEXT
+
+
+def _failsafe_cleared(state: VehicleState) -> Callable[[], bool]:
+    return lambda: not state.ekf_failsafe
 
 
 class CommandError(ValueError):
@@ -419,8 +424,16 @@ class Executor:
                     why = f"still refused {MODE_SETTLE_S:g} s after the position was good ({why})"
                     raise CommandError(self._refusal(answer.detail, why, said))
             log.info("%s; asking again in %g s (%s)", answer.detail, backoff, why)
-            self.sleep(min(backoff, max(0.0, deadline - now)))
+            # "EKF failsafe cleared" ends the pause at once: no need to wait out the backoff.
+            cleared = _failsafe_cleared(state) if state.ekf_failsafe else (lambda: False)
+            self._pause(min(backoff, max(0.0, deadline - now)), cleared)
             backoff = min(backoff * 2, MODE_BACKOFF_MAX_S)
+
+    def _pause(self, seconds: float, until: Callable[[], bool]) -> None:
+        """Sleep ``seconds`` in short steps, ending early once ``until()`` or on a stop."""
+        end = self.clock() + seconds
+        while (left := end - self.clock()) > 0 and not until() and not self._stop.is_set():
+            self.sleep(min(PAUSE_STEP_S, left))
 
     def _wait_for_position(self, deadline: float) -> None:
         """Look at the vehicle's reports each MODE_RETRY_S until they no longer say "not
