@@ -8,6 +8,7 @@ from typing import Any
 from django.contrib import admin, messages
 from django.db.models import QuerySet
 from django.http import HttpRequest
+from django.utils.html import format_html
 
 from commands.errors import CommandError
 from commands.forms import CommandForm
@@ -38,7 +39,7 @@ class CommandAdmin(admin.ModelAdmin):
         "vessel",
         "kind",
         "params_summary",
-        "status",
+        "status_badge",
         "source",
         "created_by",
     ]
@@ -51,7 +52,7 @@ class CommandAdmin(admin.ModelAdmin):
         "vessel",
         "kind",
         "params_pretty",
-        "status",
+        "status_badge",
         "source",
         "created_by",
         "created_at",
@@ -64,6 +65,7 @@ class CommandAdmin(admin.ModelAdmin):
 
     class Media:
         js = ["commands/command_form.js"]
+        css = {"all": ["commands/status.css"]}
 
     def get_inlines(self, request: HttpRequest, obj: Command | None) -> list[Any]:
         return [CommandEventInline] if obj else []
@@ -114,6 +116,14 @@ class CommandAdmin(admin.ModelAdmin):
         )
         for field in Command._meta.concrete_fields:
             setattr(obj, field.attname, getattr(created, field.attname))
+
+    @admin.display(description="status", ordering="status")
+    def status_badge(self, command: Command) -> str:
+        """The status in its colour (commands/status.css): done green, failed red, the
+        neutral ends grey (superseded: the boat or the queue replaced it with a newer one)."""
+        return format_html(
+            '<span class="command-status cmd-{}">{}</span>', command.status, command.status
+        )
 
     @admin.display(description="params")
     def params_summary(self, command: Command) -> str:

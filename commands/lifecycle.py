@@ -24,9 +24,12 @@ FINAL = frozenset({Status.DONE, Status.FAILED, Status.CANCELLED, Status.SUPERSED
 
 TRANSITIONS: dict[Status, frozenset[Status]] = {
     Status.QUEUED: frozenset({Status.SENT, Status.CANCELLED, Status.SUPERSEDED, Status.EXPIRED}),
-    # A boat may report done/failed without an explicit acknowledged first.
-    Status.SENT: frozenset({Status.ACKNOWLEDGED, Status.DONE, Status.FAILED, Status.CANCELLED}),
-    Status.ACKNOWLEDGED: frozenset({Status.DONE, Status.FAILED}),
+    # A boat may report done/failed without an explicit acknowledged first, and superseded
+    # for a command it replaced with a newer one (before or after it got under way).
+    Status.SENT: frozenset(
+        {Status.ACKNOWLEDGED, Status.DONE, Status.FAILED, Status.CANCELLED, Status.SUPERSEDED}
+    ),
+    Status.ACKNOWLEDGED: frozenset({Status.DONE, Status.FAILED, Status.SUPERSEDED}),
     Status.DONE: frozenset(),
     Status.FAILED: frozenset(),
     Status.CANCELLED: frozenset(),
@@ -35,8 +38,14 @@ TRANSITIONS: dict[Status, frozenset[Status]] = {
 }
 
 # Statuses a vessel may report in an ack, in the order they happen.
-ACK_STATUSES = (Status.ACKNOWLEDGED, Status.DONE, Status.FAILED)
-_ACK_RANK = {Status.SENT: 0, Status.ACKNOWLEDGED: 1, Status.DONE: 2, Status.FAILED: 2}
+ACK_STATUSES = (Status.ACKNOWLEDGED, Status.DONE, Status.FAILED, Status.SUPERSEDED)
+_ACK_RANK = {
+    Status.SENT: 0,
+    Status.ACKNOWLEDGED: 1,
+    Status.DONE: 2,
+    Status.FAILED: 2,
+    Status.SUPERSEDED: 2,
+}
 
 
 def can_transition(current: Status, target: Status) -> bool:

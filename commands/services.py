@@ -406,7 +406,9 @@ def command_ack(
     except ValueError:
         reported = None
     if reported not in ACK_STATUSES:
-        raise CommandError("status must be acknowledged, done or failed", field="status")
+        raise CommandError(
+            "status must be acknowledged, done, failed or superseded", field="status"
+        )
     command = _get_for_vessel(vessel, uid)
     for _attempt in range(3):
         current = Status(command.status)

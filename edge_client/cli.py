@@ -24,7 +24,14 @@ def build_parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--config", metavar="PATH", help="TOML config file (optional with flags)")
     common.add_argument("--server", metavar="URL", help="shore server base URL")
-    common.add_argument("--key", metavar="KEY", help="vessel API key")
+    common.add_argument(
+        "--key",
+        metavar="KEY",
+        help="vessel API key; shows in `ps`: prefer --key-file or $SHORESIDE_EDGE_KEY",
+    )
+    common.add_argument(
+        "--key-file", metavar="PATH", help="file holding the vessel API key (readable by us only)"
+    )
     common.add_argument(
         "--mavlink",
         metavar="CONNECTION",
@@ -65,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     overrides = {
         "server": args.server,
         "key": args.key,
+        "key_file": args.key_file,
         "mavlink": args.mavlink,
         "baud": args.baud,
         "telemetry_period": args.telemetry_period,

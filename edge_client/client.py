@@ -40,6 +40,9 @@ MAX_OUTAGE_BACKOFF_S = 60.0
 # Ack answers that will never change (DESIGN §5): unknown/other vessel's command, illegal
 # transition (cancelled meanwhile), malformed.
 ACK_DROP_STATUSES = frozenset({400, 404, 409})
+# An older server knows no `superseded` ack (400): the command is then acked `failed` with the
+# same detail, so that it does not stay open there.
+SUPERSEDED, FAILED = "superseded", "failed"
 
 
 def post_ack(transport: Transport, outbox: Outbox, item: Item) -> None:
@@ -47,13 +50,20 @@ def post_ack(transport: Transport, outbox: Outbox, item: Item) -> None:
 
     An ack the server will never take (ACK_DROP_STATUSES) is dropped and counted
     (``dropped_acks``); any other transport error propagates and the ack stays queued.
+    A ``superseded`` ack that the server refuses with 400 (a server from before that status)
+    is sent again as ``failed``, so that the command does not stay open there.
     The edge client and the glider's shore link both send their acks through here.
     """
     body = item.body
+    path = ACK_PATH.format(uid=body["uid"])
     try:
-        transport.post_json(
-            ACK_PATH.format(uid=body["uid"]), {"status": body["status"], "detail": body["detail"]}
-        )
+        try:
+            transport.post_json(path, {"status": body["status"], "detail": body["detail"]})
+        except TransportError as exc:
+            if not (body["status"] == SUPERSEDED and exc.permanent and exc.status == 400):
+                raise
+            log.info("server takes no superseded ack (%s); sending %s as failed", exc, body["uid"])
+            transport.post_json(path, {"status": FAILED, "detail": body["detail"]})
     except TransportError as exc:
         if not (exc.permanent and exc.status in ACK_DROP_STATUSES):
             raise

@@ -53,7 +53,7 @@ class ConfigError(ValueError):
 @dataclass(frozen=True)
 class ServerConfig:
     url: str = ""
-    key: str = ""
+    key: str = field(default="", repr=False)  # a secret: never in a log line or a traceback
     key_file: str = ""
 
 
@@ -144,6 +144,7 @@ class Config:
 OVERRIDES: dict[str, tuple[str, str]] = {
     "server": ("server", "url"),
     "key": ("server", "key"),
+    "key_file": ("server", "key_file"),
     "mavlink": ("mavlink", "connection"),
     "baud": ("mavlink", "baud"),
     "telemetry_period": ("telemetry", "period_s"),
@@ -195,7 +196,14 @@ def _read_toml(path: str | os.PathLike[str], source: str) -> dict[str, Any]:
 
 
 def _apply_overrides(raw: dict[str, Any], overrides: dict[str, Any], source: str) -> None:
-    """Write each given flag's value into ``raw`` at its (table, key) from :data:`OVERRIDES`."""
+    """Write each given flag's value into ``raw`` at its (table, key) from :data:`OVERRIDES`.
+
+    ``--key-file`` overrides a ``key`` in the file too (a key given there would win otherwise).
+    """
+    if overrides.get("key_file") is not None and overrides.get("key") is None:
+        server = raw.get("server")
+        if isinstance(server, dict):
+            server.pop("key", None)
     for name, value in overrides.items():
         if value is None:
             continue

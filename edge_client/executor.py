@@ -7,7 +7,8 @@ run again. A command that was running when the client died cannot be resumed saf
 next start it is acked ``failed`` with that reason.
 
 Acks go into the outbox (they survive an outage like fixes do): ``acknowledged`` when the
-autopilot has accepted the command, then ``done`` or ``failed`` with a reason a person can read.
+autopilot has accepted the command, then ``done`` or ``failed`` with a reason a person can read,
+or ``superseded`` when a newer navigation command (or a disarm) replaced it before it ended.
 
 Kind → action (mission-files.md for the Rover modes):
 ``move_to`` GUIDED + SET_POSITION_TARGET_GLOBAL_INT, done within the acceptance radius;
@@ -21,7 +22,8 @@ that make the boat move arm it first when it is disarmed (``arm_before_move``), 
 pre-arm checks.
 A command polled before the autopilot's first HEARTBEAT (the Pi and the server can be quicker
 than the autopilot after a power-up) waits for it, and a mode that needs a position is
-retried while the autopilot is still getting one; each wait lasts at most ``ready_timeout_s``
+asked for again while the autopilot is still getting one and until its EKF failsafe clears
+(a second later on Rover); each wait lasts at most ``ready_timeout_s``
 (:meth:`Executor._wait_for_autopilot`, :meth:`Executor._mode_when_ready`).
 
 The parameter checks (:func:`validate`) are pure and tested on their own.
@@ -54,15 +56,17 @@ from edge_client.mission import (
     MAV_CMD_NAV_WAYPOINT,
     MissionError,
     MissionItem,
+    WaypointNumbers,
     build_mission,
     result_name,
 )
 from edge_client.outbox import Outbox
-from edge_client.vehicle import CLOCK_SANE_AFTER
+from edge_client.vehicle import CLOCK_SANE_AFTER, VehicleState
 
 log = logging.getLogger(__name__)
 
 ACKNOWLEDGED, DONE, FAILED = "acknowledged", "done", "failed"
+SUPERSEDED = "superseded"  # replaced here by a newer command before it ended
 # Modes in which Rover drives by itself: entering one arms first (when allowed).
 MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
 # Rover modes whose Mode::requires_position() is true (Rover/mode.h): refused until the EKF
@@ -70,10 +74,26 @@ MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
 POSITION_MODES = frozenset(
     {"AUTO", "GUIDED", "LOITER", "FOLLOW", "CIRCLE", "DOCK", "RTL", "SMART_RTL"}
 )
-MODE_RETRY_S = 2.0  # between mode-change attempts while the autopilot gets its position
+MODE_RETRY_S = 2.0  # between looks at the vehicle's reports while it gets its position
+# A refusal once the position is good is asked again after 0.5, 1, 2, 2 … s: Rover reports its
+# position about a second before its EKF failsafe clears (Rover/ekf_check.cpp counts 10 good
+# checks at 10 Hz), and refuses until then.
+MODE_BACKOFF_FIRST_S = 0.5
+MODE_BACKOFF_MAX_S = 2.0
+PAUSE_STEP_S = 0.1  # how often a backoff looks whether the failsafe has cleared meanwhile
+# How long after the position is first seen good a refusal may still be the start-up one when
+# no "EKF failsafe" text was heard (it may have been sent before we listened): 5 x Rover's 1 s.
+# Later, it has another reason (AUTO without a mission…), and the command fails with it.
+MODE_SETTLE_S = 5.0
+# COMMAND_ACK results that no waiting changes (common.xml MAV_RESULT): DENIED, UNSUPPORTED.
+FINAL_REFUSALS = frozenset({2, 3})
 HEARTBEAT_WAIT_S = 0.5  # between looks for the autopilot's HEARTBEAT
 RTL_ARRIVED = "Reached destination"  # Rover/mode_rtl.cpp STATUSTEXT; a boat then loiters there
 MISSION_COMPLETE = "Mission Complete"  # Rover/mode_auto.cpp exit_mission STATUSTEXT
+
+
+def _failsafe_cleared(state: VehicleState) -> Callable[[], bool]:
+    return lambda: not state.ekf_failsafe
 
 
 class CommandError(ValueError):
@@ -322,7 +342,8 @@ class Executor:
     def _supersede(self, command: Command) -> None:
         if self.active is not None:
             old, self.active = self.active, None
-            self._ack(old.command, FAILED, f"replaced by {command.kind} command {command.uid}")
+            detail = f"replaced by {command.kind} command {command.uid}"
+            self._ack(old.command, SUPERSEDED, detail)
 
     def _ack(self, command: Command, status: str, detail: str) -> None:
         log.info("command %s: %s %s", command.uid, status, detail)
@@ -344,46 +365,93 @@ class Executor:
     def _mode(self, name: str) -> str:
         if name in POSITION_MODES:
             return self._mode_when_ready(name)
-        ok, detail = self.link.set_mode(name)
-        if not ok:
-            raise CommandError(detail)
-        return detail
+        answer = self.link.set_mode(name)
+        if not answer.ok:
+            raise CommandError(answer.detail)
+        return answer.detail
 
     def _mode_when_ready(self, name: str) -> str:
         """Enter a mode that needs a position, waiting out the autopilot's start-up.
 
-        After boot Rover refuses such modes ("Flight mode change failed") until its EKF has a
-        position, which can take a minute after the GPS fix; a command that arrives then must
-        not be thrown away.
+        After boot Rover refuses such modes ("Flight mode change failed", COMMAND_ACK FAILED)
+        until its EKF has a position, which can take a minute after the GPS fix, and then
+        for about a second more, until its EKF failsafe clears; a command that arrives then
+        must not be thrown away.
 
-        1. Ask for the mode; accepted: done.
-        2. Refused while the vehicle's own reports (EKF_STATUS_REPORT, GPS_RAW_INT, SYS_STATUS,
-           GPS_GLOBAL_ORIGIN/HOME_POSITION: :meth:`VehicleState.position_ready`) say it has a
-           position: the refusal has another reason; fail now with it.
-        3. Otherwise wait, and ask again each ``MODE_RETRY_S`` once those reports no longer
-           say "not ready" (so Rover is not nagged while it plainly cannot).
-        4. At ``ready_timeout_s`` fail with the autopilot's STATUSTEXT and what was missing.
+        1. Ask for the mode; accepted: done. Refused DENIED or UNSUPPORTED: no waiting
+           changes that; fail now with the autopilot's words.
+        2. While the vehicle's own reports (EKF_STATUS_REPORT, GPS_RAW_INT, SYS_STATUS,
+           GPS_GLOBAL_ORIGIN/HOME_POSITION: :meth:`VehicleState.position_ready`) say "no
+           position yet", look again each ``MODE_RETRY_S`` without asking (Rover is not
+           nagged while it plainly cannot).
+        3. Otherwise ask again after a short backoff (``MODE_BACKOFF_*``): while the EKF
+           failsafe is on (the autopilot said so), while the reports say nothing either way,
+           or for ``MODE_SETTLE_S`` after the position was first seen good. A refusal after
+           that has another reason: fail now with it.
+        4. At ``ready_timeout_s`` ask one last time, then fail with the autopilot's words: its
+           COMMAND_ACK result, the STATUSTEXT that came with it, what we were waiting for and
+           the latest other STATUSTEXT.
         """
         state = self.link.state
         timeout = self.config.ready_timeout_s
         deadline = self.clock() + timeout
+        backoff = MODE_BACKOFF_FIRST_S
+        settle_until: float | None = None
         while True:
-            ok, detail = self.link.set_mode(name)
-            if ok:
-                return detail
+            said = state.statustext_count
+            answer = self.link.set_mode(name)
+            if answer.ok:
+                return answer.detail
+            if answer.result in FINAL_REFUSALS:
+                raise CommandError(answer.detail)
             ready, why = state.position_ready()
-            if ready:
-                raise CommandError(detail)
-            log.info("%s; waiting for a position estimate: %s", detail, why)
-            while True:
-                if self.clock() >= deadline:
-                    raise CommandError(f"{detail}; not ready after {timeout:g} s: {why}")
-                if self._stop.is_set():
-                    raise CommandError(f"{detail}; edge client stopping: {why}")
-                self.sleep(MODE_RETRY_S)
-                ready, why = state.position_ready()
-                if ready is not False:
-                    break
+            if ready is not False and state.ekf_failsafe:
+                why = "the autopilot's EKF failsafe has not cleared"
+            now = self.clock()
+            if now >= deadline:
+                why = f"not ready after {timeout:g} s: {why}"
+                raise CommandError(self._refusal(answer.detail, why, said))
+            if self._stop.is_set():
+                raise CommandError(f"{answer.detail}; edge client stopping: {why}")
+            if ready is False:
+                settle_until, backoff = None, MODE_BACKOFF_FIRST_S
+                log.info("%s; waiting for a position estimate: %s", answer.detail, why)
+                self._wait_for_position(deadline)
+                continue
+            if ready and not state.ekf_failsafe:
+                settle_until = now + MODE_SETTLE_S if settle_until is None else settle_until
+                if now >= settle_until:
+                    why = f"still refused {MODE_SETTLE_S:g} s after the position was good ({why})"
+                    raise CommandError(self._refusal(answer.detail, why, said))
+            log.info("%s; asking again in %g s (%s)", answer.detail, backoff, why)
+            # "EKF failsafe cleared" ends the pause at once: no need to wait out the backoff.
+            cleared = _failsafe_cleared(state) if state.ekf_failsafe else (lambda: False)
+            self._pause(min(backoff, max(0.0, deadline - now)), cleared)
+            backoff = min(backoff * 2, MODE_BACKOFF_MAX_S)
+
+    def _pause(self, seconds: float, until: Callable[[], bool]) -> None:
+        """Sleep ``seconds`` in short steps, ending early once ``until()`` or on a stop."""
+        end = self.clock() + seconds
+        while (left := end - self.clock()) > 0 and not until() and not self._stop.is_set():
+            self.sleep(min(PAUSE_STEP_S, left))
+
+    def _wait_for_position(self, deadline: float) -> None:
+        """Look at the vehicle's reports each MODE_RETRY_S until they no longer say "not
+        ready", or until the deadline (or a stop): the caller then asks for the mode again."""
+        while self.clock() < deadline and not self._stop.is_set():
+            self.sleep(min(MODE_RETRY_S, max(0.0, deadline - self.clock())))
+            if self.link.state.position_ready()[0] is not False:
+                return
+
+    def _refusal(self, detail: str, why: str, said: int) -> str:
+        """A refusal in the autopilot's words, with what we waited for and the latest other
+        thing it said (STATUSTEXT): "… FAILED (Flight mode change failed); <why>; the autopilot
+        last said: EKF failsafe"."""
+        state = self.link.state
+        with_refusal = set(state.statustext_since(said))
+        others = [t for t in state.statustext if t not in with_refusal]
+        last = f"; the autopilot last said: {others[-1]}" if others else ""
+        return f"{detail}; {why}{last}"
 
     def _ensure_armed(self) -> None:
         if self.link.state.armed:
@@ -506,6 +574,8 @@ class Executor:
         upload = self.link.upload_mission(items)
         if not upload.ok:
             raise CommandError(f"mission upload failed: {upload.error}")
+        # The fixes' waypoint readings count in the operator's numbers from now on.
+        state.waypoints = WaypointNumbers.of(items)
         self._ack(
             command,
             ACKNOWLEDGED,
@@ -523,9 +593,31 @@ class Executor:
             self._ack(command, DONE, "looping mission running in AUTO")
             return
         if p["end"] == "return_home":
-            self.active = Active(command, self._mission_home_watch(items, said))
-            return
-        self.active = Active(command, self._mission_end_watch(items, p["items"][-1], said))
+            watch = self._mission_home_watch(items, said)
+        else:
+            watch = self._mission_end_watch(items, p["items"][-1], said)
+        self.active = Active(command, self._with_progress(command, items, watch))
+
+    def _with_progress(
+        self,
+        command: Command,
+        items: list[MissionItem],
+        check: Callable[[], tuple[str, str] | None],
+    ) -> Callable[[], tuple[str, str] | None]:
+        """``check``, logging each item Rover reports done in the operator's numbers
+        ("reached waypoint 3 of 5"), not MAVLink's (which count home and speed changes)."""
+        state, numbers = self.link.state, WaypointNumbers.of(items)
+        logged: int | None = None
+
+        def progress() -> tuple[str, str] | None:
+            nonlocal logged
+            reached = state.last_reached
+            if reached is not None and reached != logged and numbers.number(reached):
+                logged = reached
+                log.info("command %s: reached %s", command.uid, numbers.describe(reached))
+            return check()
+
+        return progress
 
     def _mission_end_watch(
         self, items: list[MissionItem], end: dict[str, Any], said: int
@@ -536,23 +628,26 @@ class Executor:
         Rover then stops and stays in AUTO (MIS_DONE_BEHAVE 0); leaving AUTO first fails."""
         state = self.link.state
         last = max(i.seq for i in items if i.command == MAV_CMD_NAV_WAYPOINT)
+        numbers = WaypointNumbers.of(items)
+        complete = f"mission complete ({numbers.count} of {numbers.count})"
         radius = max(self.config.acceptance_radius_m, end["radius_m"])
         seen = ModeSeen("AUTO")
 
         def check() -> tuple[str, str] | None:
             nonlocal said
             if state.last_reached == last:
-                return DONE, f"mission complete: reached waypoint {last}"
+                return DONE, complete
             count = state.statustext_count
             heard, said = state.statustext_since(said), count
             if MISSION_COMPLETE in heard and state.mode == "AUTO":
-                return DONE, f"mission complete: the autopilot says so (waypoint {last})"
+                return DONE, f"{complete}: the autopilot says so"
             if seen.left(state.mode):
                 # Someone changed the mode; if it was right at the end, the mission is done.
                 near = state.distance_to(end["lat"], end["lon"])
                 if state.mission_seq == last and near is not None and near <= radius:
-                    return DONE, f"mission complete: {near:.1f} m from the last waypoint"
-                return FAILED, f"mode changed to {state.mode} at item {state.mission_seq}"
+                    return DONE, f"{complete}: {near:.1f} m from the last waypoint"
+                where = numbers.describe(state.mission_seq)
+                return FAILED, f"mode changed to {state.mode} on the way to {where}"
             return None
 
         return check
@@ -569,11 +664,15 @@ class Executor:
         """
         state = self.link.state
         rtl = items[-1].seq
+        count = WaypointNumbers.of(items).count
         home_reached = self._home_watch("AUTO", said, lambda: state.mission_seq == rtl)
 
         def check() -> tuple[str, str] | None:
             if state.last_reached == rtl:
-                return DONE, f"mission complete: home reached (item {rtl})"
-            return home_reached()
+                return DONE, f"mission complete ({count} of {count}), home reached"
+            outcome = home_reached()
+            if outcome is not None and outcome[0] == DONE:
+                return DONE, f"mission complete ({count} of {count}), {outcome[1]}"
+            return outcome
 
         return check

@@ -25,7 +25,7 @@ import threading
 import time
 from collections import defaultdict
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 from pymavlink import mavutil
 
@@ -92,6 +92,15 @@ COMMAND_RETRIES = 2
 
 class LinkDown(Exception):
     """No autopilot to talk to."""
+
+
+class ModeAnswer(NamedTuple):
+    """The autopilot's answer to a mode change: accepted, the words, the COMMAND_ACK result
+    (None: no ack at all)."""
+
+    ok: bool
+    detail: str
+    result: int | None
 
 
 class MavlinkLink:
@@ -318,22 +327,23 @@ class MavlinkLink:
                     return msg.result
         return None
 
-    def set_mode(self, name: str) -> tuple[bool, str]:
-        """MAV_CMD_DO_SET_MODE with the Rover custom mode; True once the autopilot accepts it."""
+    def set_mode(self, name: str) -> ModeAnswer:
+        """MAV_CMD_DO_SET_MODE with the Rover custom mode; ok once the autopilot accepts it."""
         number = ROVER_MODES[name]
         said = self.state.statustext_count
         result = self.command_long(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
         if result is None:
-            return False, f"no COMMAND_ACK for mode {name}"
+            return ModeAnswer(False, f"no COMMAND_ACK for mode {name}", None)
         if result != MAV_RESULT_ACCEPTED:
             # Rover says why in a STATUSTEXT sent before the COMMAND_ACK ("Flight mode change
             # failed"); the reader thread ran its handler before the ack reached us.
             reasons = "; ".join(dict.fromkeys(self.state.statustext_since(said)))
             why = f" ({reasons})" if reasons else ""
-            return False, f"autopilot refused mode {name}: {MAV_RESULTS.get(result, result)}{why}"
+            words = f"autopilot refused mode {name}: {MAV_RESULTS.get(result, result)}{why}"
+            return ModeAnswer(False, words, result)
         # ArduPilot acks only after the mode changed; the next HEARTBEAT (≤ 1 s) will agree.
         self.state.custom_mode = number
-        return True, f"mode {name}"
+        return ModeAnswer(True, f"mode {name}", result)
 
     def arm(self, timeout: float, stop: threading.Event | None = None) -> tuple[bool, str]:
         """Arm, retrying while pre-arm checks fail, until ``timeout`` (ArduPilot's checks can

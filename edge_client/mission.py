@@ -183,6 +183,41 @@ def build_mission(
 
 
 @dataclass(frozen=True)
+class WaypointNumbers:
+    """The operator's waypoint numbers (1 … ``count``) of a mission's MAVLink items.
+
+    The autopilot counts MAVLink items (home at 0, a DO_CHANGE_SPEED before some waypoints, a
+    final RTL or DO_JUMP: :func:`build_mission`); the operator counts waypoints. A
+    DO_CHANGE_SPEED counts as the waypoint it leads to (the boat is on the leg to it); home,
+    RTL and DO_JUMP are no waypoint.
+    """
+
+    by_seq: dict[int, int]
+    count: int
+
+    @classmethod
+    def of(cls, items: list[MissionItem]) -> WaypointNumbers:
+        by_seq: dict[int, int] = {}
+        count, leading = 0, []
+        for item in items[FIRST_ITEM:]:
+            if item.command == MAV_CMD_NAV_WAYPOINT:
+                count += 1
+                by_seq.update(dict.fromkeys([*leading, item.seq], count))
+                leading = []
+            elif item.command == MAV_CMD_DO_CHANGE_SPEED:
+                leading.append(item.seq)
+        return cls(by_seq, count)
+
+    def number(self, seq: int | None) -> int | None:
+        return None if seq is None else self.by_seq.get(seq)
+
+    def describe(self, seq: int | None) -> str:
+        """ "waypoint 3 of 5" for an item of waypoint 3; "item 7" for one that is none."""
+        number = self.number(seq)
+        return f"item {seq}" if number is None else f"waypoint {number} of {self.count}"
+
+
+@dataclass(frozen=True)
 class Out:
     """A message to send: ``type`` is the MAVLink message name, ``fields`` its fields."""
 

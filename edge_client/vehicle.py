@@ -28,6 +28,7 @@ from typing import Any
 from edge_client.catalog import INITIALISING, ROVER_MODES
 from edge_client.config import ReadingSource
 from edge_client.geo import distance_m
+from edge_client.mission import WaypointNumbers
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +64,9 @@ class VehicleState:
     battery_v: float | None = None
     mission_seq: int | None = None
     last_reached: int | None = None
+    # The operator's waypoint numbers of the last mission we uploaded: the fix reports the
+    # current one ("waypoint" of "waypoints") beside the autopilot's own item ("mission_item").
+    waypoints: WaypointNumbers | None = None
     home: tuple[float, float] | None = None
     time_boot_ms: int | None = None
     gps_clock_offset_s: float | None = None  # autopilot UTC (SYSTEM_TIME) minus our clock
@@ -73,6 +77,7 @@ class VehicleState:
     gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type
     sensors_health: tuple[int, int] | None = None  # SYS_STATUS (enabled, health) bits
     origin: tuple[float, float] | None = None  # GPS_GLOBAL_ORIGIN: the EKF origin is set
+    ekf_failsafe: bool = False  # the autopilot said "EKF failsafe" and not yet "… cleared"
     last_heartbeat: float | None = None  # time.monotonic()
     position_at: float | None = None  # time.monotonic() of the last GLOBAL_POSITION_INT fix
     was_silent: bool = False
@@ -204,8 +209,14 @@ class VehicleState:
 
     def on_statustext(self, msg: Any) -> None:
         text = msg.text if isinstance(msg.text, str) else msg.text.decode("ascii", "replace")
-        self.statustext.append(text.rstrip("\x00"))
+        text = text.rstrip("\x00")
+        self.statustext.append(text)
         self.statustext_count += 1
+        said = text.lower()
+        # Rover/ekf_check.cpp says "EKF failsafe" and "EKF failsafe cleared" (Copter words
+        # them "EKF Failsafe: changed to …" and "EKF Failsafe Cleared").
+        if said.startswith("ekf failsafe"):
+            self.ekf_failsafe = not said.startswith("ekf failsafe cleared")
         log.info("autopilot says: %s", text)
 
     def reading_handler(self, source: ReadingSource) -> Callable[[Any], None]:
@@ -267,6 +278,9 @@ class VehicleState:
         readings["armed"] = 1 if self.armed else 0
         if self.mission_seq is not None:
             readings["mission_item"] = self.mission_seq
+            number = self.waypoints.number(self.mission_seq) if self.waypoints else None
+            if number is not None and self.waypoints is not None:
+                readings["waypoint"], readings["waypoints"] = number, self.waypoints.count
         if self.custom_mode is not None:
             readings["mode_number"] = self.custom_mode
         fix["readings"] = readings

@@ -103,7 +103,7 @@ class AckView(BoatView):
         request=inline_serializer(
             "Ack",
             {
-                "status": serializers.ChoiceField(["acknowledged", "done", "failed"]),
+                "status": serializers.ChoiceField(["acknowledged", "done", "failed", "superseded"]),
                 "detail": serializers.CharField(required=False),
             },
         ),
@@ -111,7 +111,8 @@ class AckView(BoatView):
         tags=["boat"],
     )
     def post(self, request: Request, uid: str) -> Response:
-        """Report `acknowledged`, `done` or `failed` for a command. Idempotent."""
+        """Report `acknowledged`, `done`, `failed` or `superseded` (replaced on the boat by a
+        newer command) for a command. Idempotent."""
         data = request.data
         if not isinstance(data, dict):
             raise ParseError('Expected a JSON object {"status": ..., "detail": ...}.')

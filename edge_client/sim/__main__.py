@@ -58,6 +58,14 @@ def main(argv: list[str] | None = None) -> int:
         "until then, armed, modes that need a position are refused (a real Rover: 30-60)",
     )
     p.add_argument(
+        "--ekf-failsafe",
+        type=float,
+        default=1.0,
+        metavar="S",
+        help="seconds after the position is good before the EKF failsafe (raised when armed "
+        "without one) clears; until then, armed, such modes are still refused (Rover: about 1)",
+    )
+    p.add_argument(
         "--request-int",
         action="store_true",
         help="request upload items with MISSION_REQUEST_INT (default: MISSION_REQUEST)",
@@ -92,6 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         lat=args.lat, lon=args.lon, speed_mps=args.speed, wp_radius_m=args.wp_radius,
         rate_hz=args.rate,
         prearm_delay_s=args.prearm_delay, position_delay_s=args.position_delay,
+        ekf_failsafe_s=args.ekf_failsafe,
         request_int=args.request_int, drop=args.drop,
         dup=args.dup, refuse_modes=tuple(args.refuse_mode), reject_mission=args.reject_mission,
         seed=args.seed,

@@ -16,11 +16,17 @@ mission-files.md, mavlink.io common.xml), not like a physics model:
   DO_SET_MISSION_CURRENT; MISSION_SET_CURRENT; SET_POSITION_TARGET_GLOBAL_INT in GUIDED.
 - Start-up: the GPS gets its 3D fix, the EKF origin and home are set (GPS_GLOBAL_ORIGIN and
   HOME_POSITION are sent) at half ``position_delay_s``; the EKF's horizontal position is good
-  only at ``position_delay_s``. Until then, while armed, a change to a mode that needs a position
-  is refused as Rover does (Rover/mode.cpp ``Mode::enter``: ``requires_position()`` and not
-  ``ekf_position_ok()``; disarmed, Rover skips the check): STATUSTEXT "Flight mode change failed"
-  and COMMAND_ACK FAILED. Readiness shows in EKF_STATUS_REPORT flags (CONST_POS_MODE, then
-  POS_HORIZ_ABS), GPS_RAW_INT fix_type and SYS_STATUS health bits (GPS, AHRS).
+  only at ``position_delay_s`` ("EKF3 IMU0 is using GPS"). Armed without a good position for
+  ``EKF_CHECK_S``, the EKF failsafe is raised ("EKF failsafe"; a mode that needs a position
+  is left for HOLD); it clears ``ekf_failsafe_s`` after the position is good ("EKF failsafe
+  cleared"), as Rover/ekf_check.cpp counts its bad checks back down, or on disarming. Until the
+  position is good and the failsafe clear, while armed, a change to a mode that needs a
+  position is refused as Rover does (Rover/mode.cpp ``Mode::enter``: ``requires_position()``
+  and not ``ekf_position_ok() && !failsafe.ekf``; disarmed, Rover skips the check): STATUSTEXT
+  "Flight mode change failed" and COMMAND_ACK FAILED. So a real Rover's start-up order, the
+  position a second before the failsafe clears, happens here too. Readiness shows in
+  EKF_STATUS_REPORT flags (CONST_POS_MODE, then POS_HORIZ_ABS), GPS_RAW_INT fix_type and
+  SYS_STATUS health bits (GPS, AHRS). ``position_delay_s`` 0 is a warm start: all good at once.
 - Motion at ``speed_mps`` (Rover's WP_SPEED) toward the GUIDED target, home in RTL/SMART_RTL
   ("Reached destination" on arrival, then it stays in the mode and holds there, as a boat
   loiters), and along the mission in AUTO as Rover/mode_auto.cpp and AP_Mission run it:
@@ -92,6 +98,11 @@ EKF_POSITION_OK = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.E
                    | mavlink.EKF_PRED_POS_HORIZ_ABS)  # fmt: skip
 SENSORS = mavlink.MAV_SYS_STATUS_SENSOR_GPS | mavlink.MAV_SYS_STATUS_AHRS
 GPS_FIX_NONE, GPS_FIX_3D = 1, 3
+# Rover/ekf_check.cpp: 10 checks at 10 Hz (EKF_CHECK_ITERATIONS_MAX) of a bad position raise
+# the EKF failsafe; as many good ones, counted back down, clear it (ekf_failsafe_s here).
+EKF_CHECK_S = 1.0
+EKF_FAILSAFE_CLEAR_S = 1.0
+EKF_USING_GPS = "EKF3 IMU0 is using GPS"  # AP_NavEKF3 when it starts fusing GPS
 
 
 @dataclass
@@ -167,6 +178,7 @@ class RoverSim:
         rate_hz: float = 4.0,
         prearm_delay_s: float = 20.0,
         position_delay_s: float = 0.0,
+        ekf_failsafe_s: float = EKF_FAILSAFE_CLEAR_S,
         request_int: bool = False,
         drop: float = 0.0,
         dup: float = 0.0,
@@ -210,6 +222,10 @@ class RoverSim:
         self.max_items = max_items
         self.prearm_delay_s = prearm_delay_s
         self.position_delay_s = position_delay_s  # a test may lower it to make the EKF ready
+        self.ekf_failsafe_s = ekf_failsafe_s
+        self.ekf_failsafe = False  # Rover's failsafe.ekf
+        self._ekf_since: float | None = None  # when the EKF check last turned bad or good
+        self._ekf_was_ok: bool | None = None  # for the "using GPS" text; None: not looked yet
         self._home_announced = False
         self.rtl_arrived = False
         self.muted = False
@@ -253,6 +269,7 @@ class RoverSim:
             for conn in self.conns:
                 while (msg := conn.recv_msg()) is not None:
                     self._receive(conn, msg, now)
+            self._ekf_check(now)
             self._physics(now - self._last_step, now)
             self._last_step = now
             self._upload_timeouts(now)
@@ -272,6 +289,36 @@ class RoverSim:
     def position_ok(self, now: float) -> bool:
         """Rover's ``ekf_position_ok()`` for an armed vehicle."""
         return now - self.boot >= self.position_delay_s
+
+    def _ekf_check(self, now: float) -> None:
+        """Rover's ekf_check (ekf_check.cpp), coarsely: while armed, ``EKF_CHECK_S`` without a
+        good position raises the failsafe; ``ekf_failsafe_s`` of a good one clears it."""
+        ok = self.position_ok(now)
+        if ok and self._ekf_was_ok is False:  # a warm start (good at once) says nothing
+            self.statustext(None, EKF_USING_GPS, 6)
+        self._ekf_was_ok = self._ekf_was_ok or ok
+        if not self.armed:
+            self._ekf_since = None
+            self._ekf_failsafe_off()  # ekf_check clears it when disarmed
+            return
+        bad = not ok
+        if self.ekf_failsafe == bad:
+            self._ekf_since = None  # nothing to count: the state matches the EKF
+            return
+        if self._ekf_since is None:
+            self._ekf_since = now
+        if bad and now - self._ekf_since >= EKF_CHECK_S:
+            self.ekf_failsafe, self._ekf_since = True, None
+            if self.mode_name in POSITION_MODES:  # FS_EKF_ACTION 1: Hold
+                self.mode = MODES["HOLD"]
+            self.statustext(None, "EKF failsafe", 2)
+        elif not bad and now - self._ekf_since >= self.ekf_failsafe_s:
+            self._ekf_failsafe_off()
+
+    def _ekf_failsafe_off(self) -> None:
+        if self.ekf_failsafe:
+            self.ekf_failsafe, self._ekf_since = False, None
+            self.statustext(None, "EKF failsafe cleared", 2)
 
     # -- sending with fault injection ---------------------------------------------------------
 
@@ -585,7 +632,8 @@ class RoverSim:
         if name in self.refuse_modes:
             self.statustext(conn, f"Mode change to {name} refused")
             return mavlink.MAV_RESULT_DENIED
-        if self.armed and name in POSITION_MODES and not self.position_ok(now):
+        position_ok = self.position_ok(now) and not self.ekf_failsafe
+        if self.armed and name in POSITION_MODES and not position_ok:
             self.statustext(conn, "Flight mode change failed")  # Rover::set_mode
             return mavlink.MAV_RESULT_FAILED
         if name == "AUTO" and len(self.mission) <= 1:

@@ -12,7 +12,8 @@ through the boat API like any boat:
   (``commands.services.command_enqueue``), so a re-poll never queues one twice and the Level 2
   source hands them to the C&C like SMS commands; their progress goes back as acks through the
   outbox (``acknowledged`` once handed to the C&C, then ``done``/``failed`` with the detail; a
-  command superseded, cancelled or expired here is ``failed`` there), which survives outages
+  command superseded here is ``superseded`` there, one cancelled or expired ``failed``), which
+  survives outages
   and restarts. The outbox's command table remembers which shore uids are still running here;
 - the authorised numbers are fetched with an ETag and replace the local list for this vessel
   (``sms.services.authorised_numbers_replace``); while the shore is away the last list stays;
@@ -84,6 +85,8 @@ SMS_WATERMARK = "shore_sms_watermark"  # the last local SmsMessage id uploaded
 REPORT_WATERMARK = "shore_report_watermark"  # the last local CommandEvent id reported
 OUTBOX_NAME = "wg-shore-outbox.sqlite3"
 HANDED_OVER = (Status.SENT, Status.ACKNOWLEDGED)  # local statuses acked as "acknowledged"
+# Final local statuses that are ack statuses on the shore too; the others are acked "failed".
+ACKED_AS_IS = (Status.DONE, Status.FAILED, Status.SUPERSEDED)
 
 
 @dataclass
@@ -370,7 +373,7 @@ class ShoreLink:
             if command is None:
                 self.outbox.add_ack(key, Status.FAILED, "lost on the glider")
             elif command.status in FINAL:
-                status = Status.DONE if command.status == Status.DONE else Status.FAILED
+                status = command.status if command.status in ACKED_AS_IS else Status.FAILED
                 detail = command.result_detail
                 if command.status not in (Status.DONE, Status.FAILED):
                     detail = f"{command.status} on the glider" + (f": {detail}" if detail else "")

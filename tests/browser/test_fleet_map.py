@@ -14,6 +14,7 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
 from commands.models import Command
+from commands.services import command_enqueue
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from tests.browser.support import js, log_in, shot, wait_for
@@ -303,6 +304,33 @@ def test_a_move_to_queued_from_the_map_is_carried_out_by_the_simulated_boat(
     assert command.status == "done"
     wait_for(browser, lambda b: "done" in b.find_element(By.ID, "fleet-panel").text)
     shot(browser, "fleet-7-move-to-done")
+
+
+def test_a_command_the_boat_replaced_shows_superseded_in_grey_not_failed_red(
+    browser, live_server, operator_user, simulated_boat: Vessel
+) -> None:
+    vessel = simulated_boat
+    wait_until(lambda: Vessel.objects.get(pk=vessel.pk).last_fix, 30, "a first fix")
+    far = command_enqueue(vessel=vessel, kind="move_to",
+                          params={"lat": HOME[0] + 0.005, "lon": HOME[1]})  # fmt: skip
+    wait_until(lambda: status_of(far) == "acknowledged", 30, "the boat to set off")
+    hold = command_enqueue(vessel=vessel, kind="hold", params={})  # the boat replaces the move_to
+    wait_until(lambda: status_of(hold) == "done", 30, "the hold")
+    far.refresh_from_db()
+    assert (far.status, far.result_detail) == ("superseded", f"replaced by hold command {hold.uid}")
+    log_in(browser, live_server, operator_user)
+    wait_for(browser, lambda b: fleet_ready(b) and "spab" in on_the_map(b))
+    open_panel(browser, "spab")
+    selector = f'#fleet-panel li[data-uid="{far.uid}"][data-status="superseded"] .status-badge'
+    badge = wait_for(browser, lambda b: b.find_element(By.CSS_SELECTOR, selector))
+    grey = ("rgb(117, 117, 117)", "rgba(117, 117, 117, 1)")  # maps.css .cmd-superseded
+    assert badge.value_of_css_property("background-color") in grey
+    shot(browser, "fleet-8-superseded-grey")
+
+
+def status_of(command: Command) -> str:
+    command.refresh_from_db(fields=["status"])
+    return command.status
 
 
 def test_the_fleet_map_draws_without_a_reachable_tile_server(

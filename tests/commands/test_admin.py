@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
+from django.conf import settings
 from django.contrib.auth.models import User
 from django.test import Client
 
 from commands.models import Command, CommandEvent
-from commands.services import command_claim_open, command_enqueue
+from commands.services import command_ack, command_claim_open, command_enqueue
 from vessels.models import Mission, Vessel, VesselKey
 from vessels.services import mission_save, mission_save_items
 
@@ -121,6 +124,25 @@ def test_a_command_page_is_read_only_with_its_history(admin_ui: Client, vessel_a
     assert "queued" in page and "sent" in page
     assert 'name="_save"' not in page
     assert CommandEvent.objects.filter(command=command).count() == 2
+
+
+def test_statuses_show_in_their_colour_superseded_in_grey_not_failed_red(
+    admin_ui: Client, vessel_a: Vessel
+) -> None:
+    replaced = command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -31, "lon": 115})
+    command_claim_open(vessel=vessel_a)
+    command_ack(vessel=vessel_a, uid=replaced.uid, status="superseded", detail="replaced")
+    failed = command_enqueue(vessel=vessel_a, kind="arm", params={})
+    command_claim_open(vessel=vessel_a)
+    command_ack(vessel=vessel_a, uid=failed.uid, status="failed", detail="pre-arm")
+    changelist = admin_ui.get("/admin/commands/command/").content.decode()
+    assert '<span class="command-status cmd-superseded">superseded</span>' in changelist
+    assert '<span class="command-status cmd-failed">failed</span>' in changelist
+    assert "commands/status.css" in changelist
+    page = admin_ui.get(f"/admin/commands/command/{replaced.pk}/change/").content.decode()
+    assert '<span class="command-status cmd-superseded">superseded</span>' in page
+    css = (settings.BASE_DIR / "commands/static/commands/status.css").read_text()
+    assert re.search(r"\.cmd-superseded[^{]*\{ background: #757575; \}", css)  # grey
 
 
 def test_commands_and_keys_are_never_deleted_from_the_admin(

@@ -198,6 +198,28 @@ def test_a_conflicting_final_ack_is_a_409(boat_a: APIClient, command_a: Command)
     assert command_a.status == Status.DONE
 
 
+@pytest.mark.parametrize("first", [[], ["acknowledged"]])
+def test_a_command_the_boat_replaced_is_acked_superseded(
+    boat_a: APIClient, command_a: Command, first: list[str]
+) -> None:
+    boat_a.get(COMMANDS)
+    for status in first:
+        boat_a.post(ack_url(command_a.uid), {"status": status}, format="json")
+    detail = "replaced by hold command 1234"
+    response = boat_a.post(
+        ack_url(command_a.uid), {"status": "superseded", "detail": detail}, format="json"
+    )
+    assert response.status_code == 200
+    assert response.json() == {"uid": str(command_a.uid), "status": "superseded"}
+    command_a.refresh_from_db()
+    assert (command_a.status, command_a.result_detail) == (Status.SUPERSEDED, detail)
+    assert command_a.finished_at is not None
+    # Old news after it (a late acknowledged, the same ack again) changes nothing.
+    for status in ("acknowledged", "superseded"):
+        again = boat_a.post(ack_url(command_a.uid), {"status": status}, format="json")
+        assert again.json()["status"] == "superseded"
+
+
 def test_acking_a_command_never_polled_is_a_409(boat_a: APIClient, command_a: Command) -> None:
     response = boat_a.post(ack_url(command_a.uid), {"status": "acknowledged"}, format="json")
     assert response.status_code == 409
@@ -206,9 +228,13 @@ def test_acking_a_command_never_polled_is_a_409(boat_a: APIClient, command_a: Co
 @pytest.mark.parametrize(
     ("body", "field", "message"),
     [
-        ({"status": "finished"}, "status", "status must be acknowledged, done or failed"),
-        ({}, "status", "status must be acknowledged, done or failed"),
-        ({"status": True}, "status", "status must be acknowledged, done or failed"),
+        (
+            {"status": "finished"},
+            "status",
+            "status must be acknowledged, done, failed or superseded",
+        ),
+        ({}, "status", "status must be acknowledged, done, failed or superseded"),
+        ({"status": True}, "status", "status must be acknowledged, done, failed or superseded"),
         ({"status": "done", "detail": 3}, "detail", "must be a string"),
         ({"status": "done", "detail": None}, "detail", "must be a string"),
     ],

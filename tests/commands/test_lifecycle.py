@@ -24,8 +24,11 @@ LEGAL = {
     (Status.SENT, Status.DONE),
     (Status.SENT, Status.FAILED),
     (Status.SENT, Status.CANCELLED),
+    # The boat replaced it with a newer command (issue 16 §7): superseded, not failed.
+    (Status.SENT, Status.SUPERSEDED),
     (Status.ACKNOWLEDGED, Status.DONE),
     (Status.ACKNOWLEDGED, Status.FAILED),
+    (Status.ACKNOWLEDGED, Status.SUPERSEDED),
 }
 
 

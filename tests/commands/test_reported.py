@@ -94,8 +94,8 @@ def test_an_illegal_report_is_refused_naming_the_move(glider):
         report(glider, uid, "failed")
     sent = uuid.uuid4()
     report(glider, sent, "sent")
-    with pytest.raises(TransitionError, match="superseded"):
-        report(glider, sent, "superseded")
+    with pytest.raises(TransitionError, match="expired"):
+        report(glider, sent, "expired")  # only a queued command expires
     assert Command.objects.get(uid=sent).status == "sent"
 
 

@@ -298,6 +298,18 @@ def test_a_conflicting_final_ack_is_an_illegal_transition(
     assert sent.status == first
 
 
+@pytest.mark.parametrize("then", ["done", "failed"])
+def test_superseded_is_final_like_done_and_failed(
+    vessel_a: Vessel, sent: Command, then: str
+) -> None:
+    command_ack(vessel=vessel_a, uid=sent.uid, status="acknowledged")
+    command, changed = command_ack(vessel=vessel_a, uid=sent.uid, status="superseded")
+    assert changed and command.status == Status.SUPERSEDED
+    assert events(sent)[-1] == ("acknowledged", "superseded")
+    with pytest.raises(TransitionError):
+        command_ack(vessel=vessel_a, uid=sent.uid, status=then)
+
+
 def test_acking_a_cancelled_command_is_an_illegal_transition(
     vessel_a: Vessel, sent: Command
 ) -> None:
@@ -320,7 +332,7 @@ def test_acking_a_command_never_sent_is_an_illegal_transition(vessel_a: Vessel) 
 def test_it_refuses_a_status_a_boat_cannot_report(
     vessel_a: Vessel, sent: Command, status: object
 ) -> None:
-    with pytest.raises(CommandError, match="acknowledged, done or failed"):
+    with pytest.raises(CommandError, match="acknowledged, done, failed or superseded"):
         command_ack(vessel=vessel_a, uid=sent.uid, status=status)  # type: ignore[arg-type]
 
 

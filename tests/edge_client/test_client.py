@@ -144,6 +144,43 @@ def test_acks_the_server_will_never_take_are_dropped(client, server, status, kep
             {"status": "done", "detail": "arrived"}) in server.log  # fmt: skip
 
 
+def ack_posts(server) -> list[dict]:
+    return [b for m, p, _, b in server.log if p.endswith("/ack/")]
+
+
+def test_a_superseded_ack_goes_up_as_superseded(client, server):
+    client.outbox.add_ack("u1", "superseded", "replaced by hold command u2")
+    client.uplink_once(0.0)
+    assert ack_posts(server) == [{"status": "superseded", "detail": "replaced by hold command u2"}]
+    assert client.outbox.count("ack") == 0
+
+
+def test_a_server_without_superseded_gets_failed_instead(client, server):
+    def older_server(method, path, body, headers):  # before superseded was an ack status
+        if path.endswith("/ack/") and body["status"] not in ("acknowledged", "done", "failed"):
+            detail = {"status": ["status must be acknowledged, done or failed"]}
+            return 400, {}, {"error": "invalid", "detail": detail}
+        return accept_all(method, path, body, headers)
+
+    server.respond = older_server
+    client.outbox.add_ack("u1", "superseded", "replaced by hold command u2")
+    client.uplink_once(0.0)
+    assert ack_posts(server) == [
+        {"status": "superseded", "detail": "replaced by hold command u2"},
+        {"status": "failed", "detail": "replaced by hold command u2"},  # so it does not stay open
+    ]
+    assert client.outbox.count("ack") == 0 and client.outbox.counter("dropped_acks") == 0
+
+
+@pytest.mark.parametrize(("status", "kept"), [(409, 0), (500, 1)])
+def test_a_superseded_ack_refused_otherwise_is_not_resent_as_failed(client, server, status, kept):
+    server.respond = lambda m, p, b, h: (status, {}, {"error": "x", "detail": "y"})
+    client.outbox.add_ack("u1", "superseded", "replaced")
+    client.uplink_once(0.0)
+    assert [b["status"] for b in ack_posts(server)] == ["superseded"]
+    assert client.outbox.count("ack") == kept
+
+
 def test_polls_send_the_etag_and_new_commands_reach_the_executor(client, server):
     def respond(method, path, body, headers):
         if path.endswith("/commands/"):

@@ -180,3 +180,40 @@ def test_every_table_is_checked_with_flags_or_not(tmp_path, text, flags, message
     path = write(tmp_path, text)
     with pytest.raises(ConfigError, match=message):
         load_config(path, {"server": "http://h", "key": "k", **flags})
+
+
+def test_the_key_never_shows_in_a_repr(tmp_path):
+    config = load_config(None, {"server": "http://h", "key": "ssk_secret-123"})
+    assert config.server.key == "ssk_secret-123"
+    for text in (repr(config.server), repr(config), str(config)):
+        assert "ssk_secret-123" not in text
+    assert "http://h" in repr(config.server)  # the rest still helps a person debugging
+
+
+def test_key_file_flag_keeps_the_key_off_the_command_line(tmp_path):
+    key_file = tmp_path / "edge.key"
+    key_file.write_text("from-flag-file\n")
+    config = load_config(None, {"server": "http://h", "key_file": str(key_file)})
+    assert config.server.key == "from-flag-file"
+    # The flag beats a key written in the config file, as every flag beats the file.
+    path = write(tmp_path, '[server]\nurl = "http://h"\nkey = "in-the-file"\n')
+    assert load_config(path, {"key_file": str(key_file)}).server.key == "from-flag-file"
+    with pytest.raises(ConfigError, match="key_file: cannot read"):
+        load_config(None, {"server": "http://h", "key_file": str(tmp_path / "missing")})
+
+
+def test_cli_takes_key_file_and_says_to_prefer_it_over_key(tmp_path):
+    key_file = tmp_path / "edge.key"
+    key_file.write_text("k\n")
+    help_text = " ".join(subprocess.run(
+        [sys.executable, "-m", "edge_client", "run", "--help"],
+        capture_output=True, text=True, timeout=30,
+    ).stdout.split())  # fmt: skip
+    assert "--key-file PATH" in help_text and "prefer --key-file" in help_text
+    result = subprocess.run(
+        [sys.executable, "-m", "edge_client", "run", "--server", "ftp://h",
+         "--key-file", str(key_file)],
+        capture_output=True, text=True, timeout=30,
+    )  # fmt: skip
+    # The key came from the file: what is left wrong is the URL, not a missing key.
+    assert result.returncode == 2 and "not an http:// or https:// URL" in result.stderr

@@ -317,11 +317,79 @@ def test_the_wait_for_a_position_ends_at_the_deadline_with_the_autopilots_reason
     executor.execute(c)
     ((status, detail),) = acks(outbox, c.uid)
     assert status == "failed"
-    assert detail == (
+    # (…; the autopilot last said: EKF failsafe) follows once the simulator has raised it.
+    assert detail.startswith(
         "autopilot refused mode RTL: FAILED (Flight mode change failed); not ready after 90 s: "
         "EKF in constant-position mode (no position yet)"
     )
     assert 1090 <= clock.now <= 1095 and sim.sim.mode_name == "HOLD"
+
+
+@pytest.mark.slow
+def test_a_command_arriving_during_boot_succeeds_once_the_ekf_failsafe_clears(
+    make_sim, make_link, outbox
+):
+    # Rover's start-up order: armed without a position, "EKF failsafe"; then the position
+    # ("EKF3 IMU0 is using GPS"), GUIDED still refused; "EKF failsafe cleared" 3 s later.
+    sim = make_sim(prearm_delay_s=0, position_delay_s=3.0, ekf_failsafe_s=3.0)
+    link = make_link(sim.endpoint)
+    config = CommandsConfig(arm_timeout_s=5, ready_timeout_s=30, acceptance_radius_m=5)
+    executor = Executor(link, outbox, config)
+    c = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    executor.execute(c)
+    assert statuses(outbox, c.uid) == ["acknowledged"], acks(outbox, c.uid)
+    said = list(link.state.statustext)
+    using_gps = said.index("EKF3 IMU0 is using GPS")
+    assert "EKF failsafe" in said[:using_gps]
+    # Refused once the position was there: the single retry of old ended the command here.
+    assert "Flight mode change failed" in said[using_gps : said.index("EKF failsafe cleared")]
+    assert sim.sim.mode_name == "GUIDED"
+    run_until_settled(executor)
+    assert statuses(outbox, c.uid) == ["acknowledged", "done"]
+
+
+def test_a_failsafe_that_never_clears_fails_at_the_deadline_in_the_autopilots_words(
+    make_sim, make_link, outbox
+):
+    sim = make_sim(prearm_delay_s=0, position_delay_s=NEVER, ekf_failsafe_s=NEVER)
+    link = make_link(sim.endpoint)
+    assert link.arm(5) == (True, "armed")
+    wait_until(lambda: link.state.ekf_failsafe, 5, 'the autopilot saying "EKF failsafe"')
+    sim.sim.position_delay_s = 0  # the position comes; the failsafe stays
+    wait_until(lambda: link.state.position_ready()[0], 5, "a position")
+    wait_until(lambda: "EKF3 IMU0 is using GPS" in link.state.statustext, 5, "the EKF's word")
+    clock = FakeClock()
+    config = CommandsConfig(arm_timeout_s=5, ready_timeout_s=30)
+    executor = Executor(link, outbox, config, clock=clock, sleep=clock.sleep)
+    c = cmd("move_to", lat=NEAR[0], lon=NEAR[1])
+    executor.execute(c)
+    assert acks(outbox, c.uid) == [(
+        "failed",
+        "autopilot refused mode GUIDED: FAILED (Flight mode change failed); not ready after "
+        "30 s: the autopilot's EKF failsafe has not cleared; "
+        "the autopilot last said: EKF3 IMU0 is using GPS",
+    )]  # fmt: skip
+    assert 1030 <= clock.now <= 1032 and sim.sim.mode_name == "HOLD"
+
+
+def test_a_refusal_that_outlasts_the_start_up_fails_without_waiting_for_the_deadline(
+    make_sim, make_link, outbox
+):
+    sim = make_sim(prearm_delay_s=0)  # warm: position good, no failsafe
+    link = make_link(sim.endpoint)
+    wait_until(lambda: link.state.position_ready()[0], 5, "a position")
+    clock = FakeClock()
+    executor = Executor(link, outbox, CommandsConfig(arm_timeout_s=5), clock=clock,
+                        sleep=clock.sleep)  # fmt: skip
+    c = cmd("resume")  # AUTO without a mission: refused FAILED, as at start-up, but for good
+    executor.execute(c)
+    ((status, detail),) = acks(outbox, c.uid)
+    assert (status, detail) == (
+        "failed",
+        "autopilot refused mode AUTO: FAILED (AutoMode: no mission); still refused 5 s after "
+        "the position was good (EKF has a horizontal position)",
+    )
+    assert 1005 <= clock.now <= 1008  # asked again for a while, not for ready_timeout_s (120)
 
 
 def test_a_newer_navigation_command_replaces_the_active_one(
@@ -333,7 +401,10 @@ def test_a_newer_navigation_command_replaces_the_active_one(
     first, second = cmd("move_to", lat=NEAR[0], lon=NEAR[1]), cmd("hold")
     executor.execute(first)
     executor.execute(second)
-    assert acks(outbox, first.uid)[-1] == ("failed", f"replaced by hold command {second.uid}")
+    assert acks(outbox, first.uid)[-1] == (
+        "superseded",
+        f"replaced by hold command {second.uid}",
+    )
     assert statuses(outbox, second.uid) == ["acknowledged", "done"]
 
 
@@ -360,8 +431,42 @@ def test_mission_is_uploaded_with_home_first_and_run_to_the_end(
                                                 for w in WAYPOINTS]  # fmt: skip
     assert (stored[0].x, stored[0].y) == (round(START[0] * 1e7), round(START[1] * 1e7))
     run_until_settled(executor)
-    assert acks(outbox, c.uid)[-1] == ("done", "mission complete: reached waypoint 3")
+    assert acks(outbox, c.uid)[-1] == ("done", "mission complete (3 of 3)")
     assert sim.sim.mode_name == "AUTO" and sim.sim.complete  # Rover stops, still in AUTO
+
+
+# Five waypoints ~30 m apart, speed changes (to 20 m/s, the catalog's most) before 1 and 3.
+FIVE = [
+    {"lat": -31.9795 + (i % 2) * 0.00025, "lon": 115.8195 + i * 0.0001, "hold_s": 0,
+     "radius_m": None, "speed_mps": 20.0 if i in (0, 2) else None}
+    for i in range(5)
+]  # fmt: skip
+
+
+@pytest.mark.slow
+def test_mission_progress_is_in_the_operators_waypoint_numbers(
+    make_sim, make_link, outbox, commands_config, caplog
+):
+    sim = make_sim()
+    link = make_link(sim.endpoint)
+    executor = Executor(link, outbox, commands_config)
+    c = cmd("mission", mission_id=5, items=FIVE, end="stop")
+    caplog.set_level("INFO", logger="edge_client.executor")
+    executor.execute(c)
+    readings = []  # what the fixes say while it runs
+    deadline = time.monotonic() + 20
+    while executor.active is not None and time.monotonic() < deadline:
+        executor.watch()
+        readings.append(link.state.fix()["readings"])
+        time.sleep(0.02)
+    # Seven MAVLink items after home (two speed changes): the last waypoint is item 7.
+    assert [e.seq for e in sim.sim.events if e.kind == "reached"][-1] == 7
+    assert acks(outbox, c.uid)[-1] == ("done", "mission complete (5 of 5)")
+    on_the_way = {(r["mission_item"], r["waypoint"], r["waypoints"]) for r in readings
+                  if "waypoint" in r}  # fmt: skip
+    assert (5, 3, 5) in on_the_way and (7, 5, 5) in on_the_way
+    said = [r.getMessage() for r in caplog.records if "reached waypoint" in r.getMessage()]
+    assert said[-1] == f"command {c.uid}: reached waypoint 5 of 5"
 
 
 @pytest.mark.slow

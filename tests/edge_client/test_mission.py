@@ -21,6 +21,7 @@ from edge_client.mission import (
     MissionItem,
     MissionUpload,
     Out,
+    WaypointNumbers,
     build_mission,
     hold_seconds,
     item_out,
@@ -97,6 +98,20 @@ def test_stop_adds_nothing_loop_jumps_back_to_item_1_forever_return_home_ends_wi
 def test_a_loop_jumps_to_item_1_even_when_that_is_a_speed_change():
     m = build_mission(HOME, [{**WPS[0], "speed_mps": 2}, WPS[1]], end="loop")
     assert shape(m) == [(SPEED, 1.0, 2.0), (WP, 5.0, 3.0), (WP, 0.0, 0.0), (JUMP, 1.0, -1.0)]
+
+
+def test_mavlink_items_map_back_to_the_operators_waypoint_numbers():
+    wps = [{"lat": -31.9 - i / 1000, "lon": 115.8, "speed_mps": 2.0 if i in (0, 2) else None}
+           for i in range(5)]  # fmt: skip
+    items = build_mission((-31.9, 115.8), wps, end="return_home")
+    # home, speed, wp1, wp2, speed, wp3, wp4, wp5, RTL
+    assert [i.command for i in items] == [16, 178, 16, 16, 178, 16, 16, 16, 20]
+    numbers = WaypointNumbers.of(items)
+    assert numbers.count == 5
+    assert [numbers.number(i.seq) for i in items] == [None, 1, 1, 2, 3, 3, 4, 5, None]
+    assert numbers.describe(7) == "waypoint 5 of 5"  # MAVLink's 7, the operator's 5
+    assert numbers.describe(4) == "waypoint 3 of 5"  # the speed change on the leg to 3
+    assert numbers.describe(8) == "item 8" and numbers.describe(None) == "item None"
 
 
 def test_the_largest_mission_the_catalog_allows_is_built_whole():

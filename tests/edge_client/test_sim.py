@@ -134,26 +134,63 @@ def wait_for(conn, kind: str, predicate, timeout: float = 5.0):
     raise AssertionError(f"no {kind} matching the condition")
 
 
+def mode_answer(conn) -> tuple[list[str], int]:
+    """The STATUSTEXTs up to the next COMMAND_ACK, and its result."""
+    texts = []
+    while (msg := conn.recv_match(type=["STATUSTEXT", "COMMAND_ACK"], blocking=True,
+                                  timeout=3)) is not None:  # fmt: skip
+        if msg.get_type() == "COMMAND_ACK":
+            return texts, msg.result
+        texts.append(msg.text)
+    raise AssertionError("no COMMAND_ACK")
+
+
 @pytest.mark.slow
 def test_armed_before_the_ekf_has_a_position_modes_that_need_one_are_refused(gcs):
-    sim, conn, expect = gcs(prearm_delay_s=0, position_delay_s=NEVER)
+    sim, conn, expect = gcs(prearm_delay_s=0, position_delay_s=NEVER, ekf_failsafe_s=0)
     starting = expect("EKF_STATUS_REPORT")
     assert starting.flags & m.EKF_CONST_POS_MODE and not starting.flags & m.EKF_POS_HORIZ_ABS
     assert expect("GPS_RAW_INT").fix_type < 3
     assert not expect("SYS_STATUS").onboard_control_sensors_health & m.MAV_SYS_STATUS_AHRS
     arm(conn, expect)
     set_mode(conn, 15)  # GUIDED
-    assert expect("STATUSTEXT").text == "Flight mode change failed"  # as Rover::set_mode says
-    assert expect("COMMAND_ACK").result == m.MAV_RESULT_FAILED and sim.mode_name == "HOLD"
+    texts, result = mode_answer(conn)
+    assert "Flight mode change failed" in texts  # as Rover::set_mode says
+    assert result == m.MAV_RESULT_FAILED and sim.mode_name == "HOLD"
     set_mode(conn, 0)  # MANUAL needs no position
-    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED
+    assert mode_answer(conn)[1] == m.MAV_RESULT_ACCEPTED
     sim.position_delay_s = 0  # the EKF converges
     wait_for(conn, "EKF_STATUS_REPORT", lambda r: r.flags & m.EKF_POS_HORIZ_ABS
              and not r.flags & m.EKF_CONST_POS_MODE)  # fmt: skip
     wait_for(conn, "SYS_STATUS", lambda r: r.onboard_control_sensors_health & m.MAV_SYS_STATUS_AHRS)
     assert wait_for(conn, "GPS_RAW_INT", lambda r: True).fix_type == 3
+    wait_until(lambda: not sim.ekf_failsafe, 5, "the EKF failsafe to clear")
     set_mode(conn, 15)
-    assert expect("COMMAND_ACK").result == m.MAV_RESULT_ACCEPTED and sim.mode_name == "GUIDED"
+    assert mode_answer(conn)[1] == m.MAV_RESULT_ACCEPTED and sim.mode_name == "GUIDED"
+
+
+@pytest.mark.slow
+def test_start_up_order_is_rovers_position_first_then_the_ekf_failsafe_clears(gcs):
+    """Armed through start-up, as on a real Rover: "EKF failsafe" after a second without a
+    position; the position comes, modes that need one are still refused; "EKF failsafe
+    cleared" ``ekf_failsafe_s`` later, and only then are they taken."""
+    sim, conn, expect = gcs(prearm_delay_s=0, position_delay_s=NEVER, ekf_failsafe_s=1.5)
+    arm(conn, expect)
+    wait_for(conn, "STATUSTEXT", lambda t: t.text == "EKF failsafe", timeout=5)
+    assert sim.ekf_failsafe
+    sim.position_delay_s = 0  # the EKF converges
+    wait_for(conn, "STATUSTEXT", lambda t: t.text == "EKF3 IMU0 is using GPS")
+    position_at = time.monotonic()
+    set_mode(conn, 15)  # GUIDED, with a position but the failsafe not yet cleared
+    texts, result = mode_answer(conn)
+    assert result == m.MAV_RESULT_FAILED and "Flight mode change failed" in texts
+    assert sim.mode_name == "HOLD"
+    wait_for(conn, "STATUSTEXT", lambda t: t.text == "EKF failsafe cleared")
+    assert 1.0 <= time.monotonic() - position_at < 3.0
+    set_mode(conn, 10)  # AUTO: refused for want of a mission now, not of a position
+    assert mode_answer(conn) == (["AutoMode: no mission"], m.MAV_RESULT_FAILED)
+    set_mode(conn, 15)
+    assert mode_answer(conn)[1] == m.MAV_RESULT_ACCEPTED and sim.mode_name == "GUIDED"
 
 
 def test_disarmed_any_mode_is_taken_before_the_ekf_has_a_position(gcs):

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import time
 from types import SimpleNamespace
 
 import pytest
 
+from edge_client.mission import WaypointNumbers, build_mission
 from edge_client.vehicle import (
     EKF_CONST_POS_MODE,
     EKF_POS_HORIZ_ABS,
@@ -65,3 +67,15 @@ def test_statustext_since_returns_only_what_came_after():
     assert state.statustext_since(mark) == []
     state.on_statustext(SimpleNamespace(text=b"Flight mode change failed\x00"))
     assert state.statustext_since(mark) == ["Flight mode change failed"]
+
+
+def test_a_fix_counts_waypoints_as_the_operator_does_once_our_mission_is_known():
+    state = VehicleState()
+    state.lat, state.lon, state.position_at = -31.9, 115.8, time.monotonic()
+    state.mission_seq = 4  # home, speed, wp1, wp2, speed (leading to wp3)
+    assert "waypoint" not in state.fix(wall_now=1.8e9)["readings"]  # not our mission's numbers
+    wps = [{"lat": -31.9, "lon": 115.8, "speed_mps": 2.0 if i in (0, 2) else None}
+           for i in range(5)]  # fmt: skip
+    state.waypoints = WaypointNumbers.of(build_mission((-31.9, 115.8), wps))
+    readings = state.fix(wall_now=1.8e9)["readings"]
+    assert (readings["mission_item"], readings["waypoint"], readings["waypoints"]) == (4, 3, 5)
