@@ -104,7 +104,7 @@ def command_validate(
     CommandError. Forms call it from ``clean()`` so a refusal is a form error, not a 500.
     """
     now = now or timezone.now()
-    valid = catalog.validate(kind, params, vessel_kind=vessel.kind)
+    valid = catalog.validate(kind, params, vessel_kind=vessel.kind, vessel=vessel_context(vessel))
     if valid.kind == "mission":
         found = _mission_route_problems(valid.params)
         if found:
@@ -116,6 +116,24 @@ def command_validate(
     elif expires_at <= now:
         raise CommandError("expires_at must be in the future")
     return valid, expires_at
+
+
+def vessel_context(vessel: Vessel) -> catalog.VesselContext:
+    """What the catalog checks a command against beyond the vessel's kind: its last fix and
+    its move_to limit (its own, else the site's MOVE_TO_MAX_M), read here because the catalog
+    reads neither the database nor the settings."""
+    fix = vessel.last_fix or {}
+    lat, lon = fix.get("lat"), fix.get("lon")
+    if vessel.move_to_max_m is None:
+        limit, source = settings.MOVE_TO_MAX_M, "MOVE_TO_MAX_M"
+    else:
+        limit, source = vessel.move_to_max_m, f"{vessel.name}'s move_to limit"
+    return catalog.VesselContext(
+        name=vessel.name,
+        position=(lat, lon) if lat is not None and lon is not None else None,
+        move_to_max_m=limit,
+        limit_source=source,
+    )
 
 
 def _mission_route_problems(params: dict[str, Any]) -> list[str]:

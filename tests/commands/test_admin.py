@@ -8,6 +8,7 @@ from django.test import Client
 
 from commands.models import Command, CommandEvent
 from commands.services import command_claim_open, command_enqueue
+from tests.conftest import give_position
 from vessels.models import Mission, Vessel, VesselKey
 from vessels.services import mission_save, mission_save_items
 
@@ -15,6 +16,7 @@ pytestmark = pytest.mark.django_db
 
 
 def test_the_command_form_queues_a_valid_command(admin_ui: Client, vessel_a: Vessel) -> None:
+    give_position(vessel_a)
     page = admin_ui.get("/admin/commands/command/add/").content.decode()
     assert "move_to__lat" in page and "command_form.js" in page
     response = admin_ui.post(

@@ -12,6 +12,7 @@ from rest_framework.test import APIClient
 from commands.lifecycle import Status
 from commands.models import Command
 from commands.services import command_ack, command_claim_open, command_enqueue
+from tests.conftest import give_position
 from tests.support import cancel_url, commands_url, iso
 from vessels.models import Vessel
 
@@ -40,6 +41,7 @@ def test_it_lists_a_vessels_commands_newest_first_with_their_history(
 def test_it_creates_a_command_through_the_catalog(
     operator: APIClient, vessel_a: Vessel, operator_user: User
 ) -> None:
+    give_position(vessel_a, lat=-32.01, lon=115.7)
     response = operator.post(
         commands_url(), {"kind": "move_to", "params": {"lat": -32, "lon": 115.7}}, format="json"
     )
