@@ -612,7 +612,9 @@ def _report_rank(status: Status) -> int:
 
 
 # A vessel reports only what was made on board: by SMS, or by the vessel itself.
-REPORTED_SOURCES = (Source.SMS.value, Source.SYSTEM.value)
+REPORTED_SOURCES = (Source.SMS.value, Source.VESSEL.value)
+# "vessel" was called "system" before issue 16; a vessel that still says so means the same.
+REPORTED_SOURCE_ALIASES = {"system": Source.VESSEL.value}
 CREATED_BY_MAX = 150  # Command.created_by's max_length
 
 
@@ -669,6 +671,7 @@ def command_record_reported(
         reported = Status(status)
     except ValueError:
         raise CommandError(f"unknown status {status!r}", field="status") from None
+    source = REPORTED_SOURCE_ALIASES.get(source, source)
     if source not in REPORTED_SOURCES:
         # An operator's command is made on the shore, never reported by a vessel's key.
         raise CommandError(

@@ -6,7 +6,7 @@ import pytest
 from django.contrib.auth.models import User
 from django.test import Client
 
-from commands.models import Command, CommandEvent
+from commands.models import Command, CommandEvent, Source
 from commands.services import command_claim_open, command_enqueue
 from tests.conftest import give_position
 from vessels.models import Mission, Vessel, VesselKey
@@ -123,6 +123,24 @@ def test_a_command_page_is_read_only_with_its_history(admin_ui: Client, vessel_a
     assert "queued" in page and "sent" in page
     assert 'name="_save"' not in page
     assert CommandEvent.objects.filter(command=command).count() == 2
+
+
+def test_a_command_is_titled_by_its_vessels_name_and_listed_with_its_source(
+    admin_ui: Client, vessel_a: Vessel, vessel_b: Vessel
+) -> None:
+    # vessel_b's id is not 1: a title with the id would read "hold → 2".
+    command = command_enqueue(vessel=vessel_b, kind="hold", params={}, source=Source.MAP)
+    assert str(command) == "hold → SPAB 2 (queued)"
+    page = admin_ui.get(f"/admin/commands/command/{command.pk}/change/").content.decode()
+    assert "hold → SPAB 2 (queued)" in page
+    assert f"hold → {vessel_b.pk}" not in page
+    command_enqueue(vessel=vessel_a, kind="arm", params={}, source=Source.ADMIN)
+    changelist = admin_ui.get("/admin/commands/command/").content.decode()
+    assert '<td class="field-source">Map</td>' in changelist
+    assert '<td class="field-source">Admin</td>' in changelist
+    only_map = admin_ui.get("/admin/commands/command/?source__exact=map").content.decode()
+    assert '<td class="field-source">Map</td>' in only_map
+    assert '<td class="field-source">Admin</td>' not in only_map
 
 
 def test_commands_and_keys_are_never_deleted_from_the_admin(

@@ -55,6 +55,17 @@ def test_it_creates_a_command_through_the_catalog(
     assert body["events"][0]["to_status"] == "queued"
 
 
+@pytest.mark.parametrize(("body", "source"), [({}, "api"), ({"source": "map"}, "map")])
+def test_a_created_command_records_whether_it_came_from_a_script_or_the_map(
+    operator: APIClient, vessel_a: Vessel, body: dict[str, Any], source: str
+) -> None:
+    response = operator.post(commands_url(), {"kind": "hold", **body}, format="json")
+    assert (response.status_code, response.json()["source"]) == (201, source)
+    command = Command.objects.get()
+    assert (command.source, command.created_by) == (source, "alice")
+    assert command.events.get().detail == f"via {source}"
+
+
 def test_a_created_command_may_carry_its_own_expiry(operator: APIClient, vessel_a: Vessel) -> None:
     expires = dt.datetime.now(dt.UTC).replace(microsecond=0) + dt.timedelta(hours=1)
     response = operator.post(
@@ -76,6 +87,19 @@ def test_a_created_command_may_carry_its_own_expiry(operator: APIClient, vessel_
         ("spab", {"kind": "arm", "params": {"force": 1}}, "params", "unknown parameter 'force'"),
         ("spab", {"kind": "move_to", "params": [1, 2]}, "params", "params must be an object"),
         ("glider", {"kind": "fhead", "params": {"bearing": 360}}, "params", "bearing must be"),
+        (  # a typed 400 must never become 040° (issue 16 §3)
+            "glider",
+            {"kind": "fhead", "params": {"bearing": 400}, "source": "map"},
+            "params",
+            "bearing must be between 0 and 359 (got 400)",
+        ),
+        ("glider", {"kind": "fhead", "params": {"bearing": -20}}, "params", "(got -20)"),
+        # An API client is a script or the map: it cannot pass for the admin, an SMS, a vessel.
+        ("spab", {"kind": "hold", "source": "admin"}, "source", "must be api or map (got 'admin')"),
+        ("spab", {"kind": "hold", "source": "sms"}, "source", "must be api or map"),
+        ("spab", {"kind": "hold", "source": "vessel"}, "source", "must be api or map"),
+        ("spab", {"kind": "hold", "source": "system"}, "source", "must be api or map"),
+        ("spab", {"kind": "hold", "source": ["map"]}, "source", "must be api or map"),
         ("spab", {"params": {}}, "kind", "This field is required."),
         ("spab", {"kind": "hold", "expires_at": "soon"}, "expires_at", "Datetime has wrong"),
         (
