@@ -388,7 +388,7 @@
         if (d > MOVE_WARN_M) { warning = "This is " + S.fmtDistance(d) + " away — far beyond a normal move."; }
       } else {
         text += " (its position is unknown: no fix yet)";
-        warning = "With no fix, how far this is cannot be checked: the server refuses it unless " + v.name + "'s move limit is off.";
+        warning = "With no fix, how far this is cannot be checked: the server refuses it unless " + v.name + "'s move_to limit is off (0).";
       }
       this.pending = { kind: action.kind, label: action.label, text: text, warning: warning,
         params: { lat: round6(latlng.lat), lon: round6(latlng.lng) } };
