@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from commands.errors import CatalogError
+from vessels.geo import distance_m
 from vessels.kinds import MAVLINK, WAVE_GLIDER
 from vessels.missions import (
     ENDS,
@@ -22,6 +23,7 @@ from vessels.missions import (
     RADIUS_MIN_M,
     SPEED_MAX_MPS,
     SPEED_MIN_MPS,
+    format_distance,
 )
 
 # ArduPilot Rover flight modes (ArduPilot Rover/mode.h, `enum Number`); INITIALISING is not
@@ -381,6 +383,17 @@ SMS_WORDS: dict[str, CommandKind] = {k.sms_word: k for k in KINDS.values() if k.
 
 
 @dataclass(frozen=True)
+class VesselContext:
+    """What some checks need to know of the vessel beyond its kind, handed in by the caller
+    (the catalog reads no database): its name for messages, its last fix, its move limit."""
+
+    name: str
+    position: tuple[float, float] | None  # (lat, lon) of the last fix; None: never reported
+    move_to_max_m: float  # how far a move_to may send it from there; 0: no limit
+    limit_source: str = ""  # where the limit is set, for the message ("MOVE_TO_MAX_M")
+
+
+@dataclass(frozen=True)
 class ValidCommand:
     kind: str
     params: dict[str, Any]
@@ -400,12 +413,19 @@ def kinds_for(vessel_kind: str) -> list[CommandKind]:
     return [k for k in KINDS.values() if vessel_kind in k.vessel_kinds]
 
 
-def validate(kind: str, params: Any, *, vessel_kind: str | None = None) -> ValidCommand:
+def validate(
+    kind: str,
+    params: Any,
+    *,
+    vessel_kind: str | None = None,
+    vessel: VesselContext | None = None,
+) -> ValidCommand:
     """Validate a command for a vessel kind; return normalised params or raise CatalogError.
 
     1. The kind must exist and (when given) suit the vessel kind.
     2. ``params`` must be an object whose keys are all known parameters.
     3. Each parameter is type-checked and range-checked, defaults filled in.
+    4. With ``vessel`` given, a move_to must stay within its limit of the last fix.
     """
     spec = get_kind(kind)
     if vessel_kind is not None and vessel_kind not in spec.vessel_kinds:
@@ -423,7 +443,30 @@ def validate(kind: str, params: Any, *, vessel_kind: str | None = None) -> Valid
     if spec.name == "mission":
         clean = _mission_end(clean)
         _mission_fits(clean)
+    elif spec.name == "move_to" and vessel is not None:
+        _move_to_in_reach(clean, vessel)
     return ValidCommand(kind=spec.name, params=clean, navigation=spec.navigation)
+
+
+def _move_to_in_reach(params: Mapping[str, Any], vessel: VesselContext) -> None:
+    """A move_to goes no farther than the vessel's limit from its last fix (issue 16: a map
+    click 733 km inland, Perth → London through the API, were queued). Without a last fix
+    the distance cannot be measured, so it is refused unless the limit is off (0)."""
+    limit = vessel.move_to_max_m
+    if limit <= 0:
+        return
+    where = f" ({vessel.limit_source})" if vessel.limit_source else ""
+    if vessel.position is None:
+        raise CatalogError(
+            f"{vessel.name} has not reported a fix yet, so how far the move_to target is cannot "
+            f"be checked; the limit is {format_distance(limit)}{where}"
+        )
+    metres = distance_m(*vessel.position, params["lat"], params["lon"])
+    if metres > limit:
+        raise CatalogError(
+            f"move_to target is {format_distance(metres)} from {vessel.name}'s last fix; "
+            f"the limit is {format_distance(limit)}{where}"
+        )
 
 
 def _mission_end(params: dict[str, Any]) -> dict[str, Any]:

@@ -11,10 +11,14 @@ from vessels.models import Vessel
 
 
 class Source(models.TextChoices):
+    """Where a command came from: the admin's form, the operator API (a script, or the fleet
+    map's buttons), an SMS, or the vessel itself (reported up by it)."""
+
     ADMIN = "admin", "Admin"
+    MAP = "map", "Map"
     API = "api", "API"
     SMS = "sms", "SMS"
-    SYSTEM = "system", "System"
+    VESSEL = "vessel", "Vessel"
 
 
 class Command(models.Model):
@@ -49,7 +53,8 @@ class Command(models.Model):
         ]
 
     def __str__(self) -> str:
-        return f"{self.kind} → {self.vessel_id} ({self.status})"
+        # The vessel's name, not its database id: this is the admin page's title.
+        return f"{self.kind} → {self.vessel.name} ({self.status})"
 
 
 class CommandEvent(models.Model):

@@ -104,7 +104,7 @@ def command_validate(
     CommandError. Forms call it from ``clean()`` so a refusal is a form error, not a 500.
     """
     now = now or timezone.now()
-    valid = catalog.validate(kind, params, vessel_kind=vessel.kind)
+    valid = catalog.validate(kind, params, vessel_kind=vessel.kind, vessel=vessel_context(vessel))
     if valid.kind == "mission":
         found = _mission_route_problems(valid.params)
         if found:
@@ -116,6 +116,24 @@ def command_validate(
     elif expires_at <= now:
         raise CommandError("expires_at must be in the future")
     return valid, expires_at
+
+
+def vessel_context(vessel: Vessel) -> catalog.VesselContext:
+    """What the catalog checks a command against beyond the vessel's kind: its last fix and
+    its move_to limit (its own, else the site's MOVE_TO_MAX_M), read here because the catalog
+    reads neither the database nor the settings."""
+    fix = vessel.last_fix or {}
+    lat, lon = fix.get("lat"), fix.get("lon")
+    if vessel.move_to_max_m is None:
+        limit, source = settings.MOVE_TO_MAX_M, "MOVE_TO_MAX_M"
+    else:
+        limit, source = vessel.move_to_max_m, f"{vessel.name}'s move_to limit"
+    return catalog.VesselContext(
+        name=vessel.name,
+        position=(lat, lon) if lat is not None and lon is not None else None,
+        move_to_max_m=limit,
+        limit_source=source,
+    )
 
 
 def _mission_route_problems(params: dict[str, Any]) -> list[str]:
@@ -612,7 +630,9 @@ def _report_rank(status: Status) -> int:
 
 
 # A vessel reports only what was made on board: by SMS, or by the vessel itself.
-REPORTED_SOURCES = (Source.SMS.value, Source.SYSTEM.value)
+REPORTED_SOURCES = (Source.SMS.value, Source.VESSEL.value)
+# "vessel" was called "system" before issue 16; a vessel that still says so means the same.
+REPORTED_SOURCE_ALIASES = {"system": Source.VESSEL.value}
 CREATED_BY_MAX = 150  # Command.created_by's max_length
 
 
@@ -669,6 +689,7 @@ def command_record_reported(
         reported = Status(status)
     except ValueError:
         raise CommandError(f"unknown status {status!r}", field="status") from None
+    source = REPORTED_SOURCE_ALIASES.get(source, source)
     if source not in REPORTED_SOURCES:
         # An operator's command is made on the shore, never reported by a vessel's key.
         raise CommandError(

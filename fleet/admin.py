@@ -66,13 +66,14 @@ class FleetVesselAdmin(VesselAdmin):
         commands = Command.objects.filter(vessel=vessel).order_by("-created_at")[:RECENT_ROWS]
         rows = format_html_join(
             "",
-            '<tr><td>{}</td><td><a href="{}">{}</a></td><td>{}</td><td>{}</td></tr>',
+            '<tr><td>{}</td><td><a href="{}">{}</a></td><td>{}</td><td>{}</td><td>{}</td></tr>',
             (
                 (
                     c.created_at.strftime("%Y-%m-%d %H:%M:%S"),
                     reverse("admin:commands_command_change", args=[c.pk]),
                     c.kind,
                     c.status,
+                    c.get_source_display(),
                     c.result_detail[:80],
                 )
                 for c in commands
@@ -80,7 +81,8 @@ class FleetVesselAdmin(VesselAdmin):
         )
         link = reverse("admin:commands_command_add") + f"?vessel={vessel.pk}"
         return format_html(
-            "<table><tr><th>created (UTC)</th><th>kind</th><th>status</th><th>detail</th></tr>"
+            "<table><tr><th>created (UTC)</th><th>kind</th><th>status</th><th>source</th>"
+            "<th>detail</th></tr>"
             '{}</table><a class="button" href="{}">Queue a command</a>',
             rows,
             link,

@@ -346,6 +346,11 @@ KEY_TOUCH_INTERVAL_S = env_int("KEY_TOUCH_INTERVAL_S", 60)
 COMMAND_DEFAULT_TTL_S = env_int("COMMAND_DEFAULT_TTL_S", 24 * 3600)
 # Mission checks (vessels.missions): a leg longer than this is refused before sending [50 km].
 MISSION_MAX_LEG_M = env_int("MISSION_MAX_LEG_M", 50_000)
+# A move_to farther than this from the vessel's last fix is refused; a vessel's own
+# move_to_max_m overrides it; 0 = no limit (commands.services.command_validate) [5 km].
+MOVE_TO_MAX_M = env_int("MOVE_TO_MAX_M", 5_000)
+if MOVE_TO_MAX_M < 0:
+    raise ValueError(f"MOVE_TO_MAX_M={MOVE_TO_MAX_M} is negative (0 turns the limit off)")
 DATA_UPLOAD_MAX_MEMORY_SIZE = env_int("DATA_UPLOAD_MAX_MEMORY_SIZE", 10 * 1024 * 1024)
 
 # SMS control (sms app): national numbers ("0412 345 678") are read in this ISO 3166 region;

@@ -153,9 +153,21 @@ def token_operator(operator_user: User) -> APIClient:
     return client
 
 
+def give_position(vessel: Vessel, lat: float = -31.9505, lon: float = 115.8605) -> Vessel:
+    """Set the vessel's last fix (denormalised, no Fix row, no "seen" time): a move_to is
+    measured from it (MOVE_TO_MAX_M) and refused without one. For tests about something else;
+    tests of the limit itself ingest real fixes."""
+    Vessel.objects.filter(pk=vessel.pk).update(
+        last_fix={"time": "2026-11-23T10:00:00+00:00", "lat": lat, "lon": lon}
+    )
+    vessel.refresh_from_db(fields=["last_fix"])
+    return vessel
+
+
 @pytest.fixture
 def command_a(vessel_a: Vessel) -> Command:
-    """A queued move_to for boat A."""
+    """A queued move_to for boat A (from a last fix 70 m away)."""
+    give_position(vessel_a)
     return command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -31.95, "lon": 115.86})
 
 

@@ -113,6 +113,7 @@ class VesselAdmin(admin.ModelAdmin):
                     "active",
                     "telemetry_period_s",
                     "cruise_speed_mps",
+                    "move_to_max_m",
                     "notes",
                 ]
             },

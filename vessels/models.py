@@ -21,6 +21,8 @@ from vessels.missions import (
 
 # A vessel silent for this many telemetry periods is overdue (DESIGN §3).
 OVERDUE_PERIODS = 3
+# Half the Earth's circumference: no two points are farther apart, so no limit needs more.
+MOVE_TO_MAX_LIMIT_M = 20_038_000
 
 
 class VesselKind(models.TextChoices):
@@ -44,6 +46,16 @@ class Vessel(models.Model):
         default=DEFAULT_CRUISE_SPEED_MPS,
         validators=[MinValueValidator(SPEED_MIN_MPS), MaxValueValidator(SPEED_MAX_MPS)],
         help_text="Usual speed through the water; mission times are estimated with it.",
+    )
+    # A move_to farther than this from the last fix is refused (commands.catalog): a slip of
+    # the mouse or a swapped coordinate must not send the boat across an ocean.
+    move_to_max_m = models.PositiveIntegerField(
+        "move_to limit (m)",
+        null=True,
+        blank=True,
+        validators=[MaxValueValidator(MOVE_TO_MAX_LIMIT_M)],
+        help_text="How far from its last fix a move_to may send it. Empty: the site default "
+        "(MOVE_TO_MAX_M); 0: no limit.",
     )
     # Denormalised newest fix for the fleet list and map: {time, lat, lon, heading_deg, ...}.
     last_fix = models.JSONField(null=True, blank=True, editable=False)

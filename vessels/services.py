@@ -174,6 +174,19 @@ def vessel_save(*, vessel: Vessel) -> Vessel:
     return vessel
 
 
+def vessel_update(*, vessel: Vessel, fields: Mapping[str, Any]) -> Vessel:
+    """Change some of an operator's settings of ``vessel`` (the operator API's PATCH).
+
+    Only the given columns are written: a whole-row save would put back the last fix read
+    with ``vessel``, undoing a fix ingested meanwhile.
+    """
+    for name, value in fields.items():
+        setattr(vessel, name, value)
+    vessel.full_clean()
+    vessel.save(update_fields=list(fields))
+    return vessel
+
+
 def mission_save(*, mission: Mission) -> Mission:
     mission.full_clean()
     mission.save()

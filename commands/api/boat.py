@@ -136,7 +136,12 @@ class ReportedCommandIn(serializers.Serializer):
     uid = serializers.UUIDField()
     kind = serializers.CharField(max_length=20)
     params = serializers.DictField(required=False, default=dict)
-    source = serializers.ChoiceField(Source.choices, required=False, default=Source.SMS)
+    source = serializers.ChoiceField(
+        [*Source.choices, ("system", "System (the older name of vessel)")],
+        required=False,
+        default=Source.SMS,
+        help_text="sms or vessel (system, the older name, is taken as vessel)",
+    )
     created_by = serializers.CharField(max_length=150, required=False, allow_blank=True)
     created_at = serializers.DateTimeField(help_text="when the vessel created it")
     # A plain string, checked by the service: a ChoiceField would give the OpenAPI schema a

@@ -49,12 +49,24 @@ class CommandSerializer(serializers.ModelSerializer):
         read_only_fields = fields
 
 
+# What an API client may say it is: a script (api) or the fleet map's buttons (map). The
+# admin, an SMS and a vessel have their own ways in; a client cannot pass for them.
+API_SOURCES = (Source.API, Source.MAP)
+
+
 class CommandCreateSerializer(serializers.Serializer):
     """Shape only; the catalog (via command_enqueue) decides what is valid."""
 
     kind = serializers.CharField()
     params = serializers.JSONField(required=False, default=dict)
     expires_at = serializers.DateTimeField(required=False, allow_null=True)
+    source = serializers.ChoiceField(
+        [(s.value, s.label) for s in API_SOURCES],
+        required=False,
+        default=Source.API,
+        help_text="where the command comes from: api (default) or map (the fleet map)",
+        error_messages={"invalid_choice": "must be api or map (got {input!r})"},
+    )
 
 
 class CommandCursor(CursorPagination):
@@ -88,7 +100,7 @@ class VesselCommandsView(generics.ListCreateAPIView):
             vessel=vessel,
             kind=incoming.validated_data["kind"],
             params=incoming.validated_data["params"],
-            source=Source.API,
+            source=incoming.validated_data["source"],
             created_by=request.user.get_username(),
             expires_at=incoming.validated_data.get("expires_at"),
         )

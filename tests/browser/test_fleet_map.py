@@ -226,6 +226,107 @@ def test_a_fixed_heading_is_picked_on_the_map_and_a_light_queued_then_cancelled(
     shot(browser, "fleet-10-light-cancelled")
 
 
+def message(browser) -> str:
+    return browser.find_element(By.CSS_SELECTOR, "#fleet-panel .action-message").text
+
+
+def test_a_typed_heading_outside_0_to_359_is_refused_by_the_map_and_by_the_server(
+    browser, live_server, operator_user, glider: Vessel, make_fix
+) -> None:
+    """Issue 16 §3: a typed 400 once wrapped to 040° and queued."""
+    fix_ingest(
+        vessel=glider,
+        records=[make_fix(time=timezone.now().isoformat(), lat=-32.0380, lon=115.3325)],
+    )
+    log_in(browser, live_server, operator_user)
+    wait_for(browser, lambda b: fleet_ready(b) and "glider" in on_the_map(b))
+    open_panel(browser, "glider")
+    browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="fhead"]').click()
+    for typed in ("400", "-5", "12.5"):
+        box = browser.find_element(By.CSS_SELECTOR, "#fleet-panel .bearing-input")
+        box.clear()
+        box.send_keys(typed)
+        browser.find_element(By.CSS_SELECTOR, "#fleet-panel .use-bearing").click()
+        said = f"A heading is a whole number of degrees from 0 to 359 (you typed {typed})."
+        wait_for(browser, lambda b, said=said: message(b) == said)
+        assert not browser.find_elements(By.CSS_SELECTOR, "#fleet-panel .confirm-queue")
+        # The box keeps what was typed, to be corrected.
+        box = browser.find_element(By.CSS_SELECTOR, "#fleet-panel .bearing-input")
+        assert box.get_attribute("value") == typed
+    shot(browser, "fleet-11-heading-400-refused")
+
+    # The map's own send path carries the value as given: the server refuses 400 too.
+    js(
+        browser,
+        "var f = window.shoresideFleet; f.askBearing(f.pick.action, 400, null); f.send();",
+    )
+    wait_for(
+        browser,
+        lambda b: (
+            message(b) == "Not queued (HTTP 400): bearing must be between 0 and 359 (got 400)"
+        ),
+    )
+    assert not Command.objects.exists()
+
+    js(browser, "window.shoresideFleet.cancelPick()")
+    browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="fhead"]').click()
+    browser.find_element(By.CSS_SELECTOR, "#fleet-panel .bearing-input").send_keys("40")
+    browser.find_element(By.CSS_SELECTOR, "#fleet-panel .use-bearing").click()
+    confirm = browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-text").text
+    assert confirm == "Queue “Fixed heading 040°” for Wave Glider?"
+    browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
+    wait_until(lambda: Command.objects.filter(kind="fhead").exists(), 20, "the fhead")
+    command = Command.objects.get()
+    assert (command.params, command.source) == ({"bearing": 40}, "map")
+
+
+def test_a_far_move_to_is_warned_about_and_refused_past_the_vessels_limit(
+    browser, live_server, operator_user, vessel_a: Vessel, make_fix
+) -> None:
+    """Issue 16 §2: a click 733 km inland was queued and the boat set off."""
+    perth = (-31.9505, 115.8605)
+    fix_ingest(
+        vessel=vessel_a,
+        records=[make_fix(time=timezone.now().isoformat(), lat=perth[0], lon=perth[1])],
+    )
+    log_in(browser, live_server, operator_user)
+    wait_for(browser, lambda b: fleet_ready(b) and "spab" in on_the_map(b))
+    # Zoomed out to a continent: 200 px from the boat is hundreds of kilometres.
+    js(browser, "window.shoresideFleet.map.setView(arguments[0], 6, {animate: false})", perth)
+    open_panel(browser, "spab")
+    browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="move_to"]').click()
+    the_map = browser.find_element(By.ID, "fleet-map")
+    ActionChains(browser).move_to_element_with_offset(the_map, 200, -150).click().perform()
+    warning = wait_for(
+        browser, lambda b: b.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-warning")
+    ).text
+    target = js(browser, "var p = window.shoresideFleet.pending.params; return [p.lat, p.lon]")
+    km = distance_m(*perth, *target) / 1000
+    assert km > 100
+    assert warning == f"This is {km:.1f} km away — far beyond a normal move."
+    shot(browser, "fleet-12-far-move-to-warned")
+
+    browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
+    said = wait_for(browser, lambda b: message(b).startswith("Not queued") and message(b))
+    assert said == (
+        f"Not queued (HTTP 400): move_to target is {km:.1f} km from SPAB's last fix; "
+        "the limit is 5.0 km (MOVE_TO_MAX_M)"
+    )
+    assert not Command.objects.exists()
+    shot(browser, "fleet-13-far-move-to-refused")
+
+    # A move of a few hundred metres: no warning, and it is queued.
+    js(browser, "window.shoresideFleet.map.setView(arguments[0], 16, {animate: false})", perth)
+    js(browser, "window.shoresideFleet.cancelPick()")
+    browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="move_to"]').click()
+    ActionChains(browser).move_to_element_with_offset(the_map, 60, -40).click().perform()
+    wait_for(browser, lambda b: b.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-text"))
+    assert not browser.find_elements(By.CSS_SELECTOR, "#fleet-panel .confirm-warning")
+    browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
+    wait_until(lambda: Command.objects.filter(kind="move_to").exists(), 20, "the move_to")
+    assert Command.objects.get().source == "map"
+
+
 HOME = (-31.9800, 115.8200)
 
 
@@ -281,7 +382,8 @@ def test_a_move_to_queued_from_the_map_is_carried_out_by_the_simulated_boat(
     browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
     wait_until(lambda: Command.objects.filter(kind="move_to").exists(), 20, "the move_to")
     command = Command.objects.get(kind="move_to")
-    assert command.source == "api" and command.created_by == operator_user.username
+    # The history says it came from the map (issue 16 §9), and the panel shows it.
+    assert command.source == "map" and command.created_by == operator_user.username
     target = (command.params["lat"], command.params["lon"])
     fix = Vessel.objects.get(pk=vessel.pk).last_fix
     metres = distance_m(fix["lat"], fix["lon"], *target)
@@ -298,6 +400,8 @@ def test_a_move_to_queued_from_the_map_is_carried_out_by_the_simulated_boat(
         )
 
     wait_for(browser, lambda b: shown_status(b) in ("sent", "acknowledged", "done"))
+    shown = browser.find_element(By.CSS_SELECTOR, f'#fleet-panel li[data-uid="{command.uid}"]')
+    assert f"by {operator_user.username} via map" in shown.text
     shot(browser, "fleet-6-move-to-underway")
     wait_for(browser, lambda b: shown_status(b) == "done", 60)
     command.refresh_from_db()

@@ -9,8 +9,9 @@ from django.conf import settings
 from django.contrib.auth.models import User
 from django.test import Client
 
-from commands.models import Command, CommandEvent
+from commands.models import Command, CommandEvent, Source
 from commands.services import command_ack, command_claim_open, command_enqueue
+from tests.conftest import give_position
 from vessels.models import Mission, Vessel, VesselKey
 from vessels.services import mission_save, mission_save_items
 
@@ -18,6 +19,7 @@ pytestmark = pytest.mark.django_db
 
 
 def test_the_command_form_queues_a_valid_command(admin_ui: Client, vessel_a: Vessel) -> None:
+    give_position(vessel_a)
     page = admin_ui.get("/admin/commands/command/add/").content.decode()
     assert "move_to__lat" in page and "command_form.js" in page
     response = admin_ui.post(
@@ -129,6 +131,7 @@ def test_a_command_page_is_read_only_with_its_history(admin_ui: Client, vessel_a
 def test_statuses_show_in_their_colour_superseded_in_grey_not_failed_red(
     admin_ui: Client, vessel_a: Vessel
 ) -> None:
+    give_position(vessel_a, -31.0, 115.0)
     replaced = command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -31, "lon": 115})
     command_claim_open(vessel=vessel_a)
     command_ack(vessel=vessel_a, uid=replaced.uid, status="superseded", detail="replaced")
@@ -143,6 +146,24 @@ def test_statuses_show_in_their_colour_superseded_in_grey_not_failed_red(
     assert '<span class="command-status cmd-superseded">superseded</span>' in page
     css = (settings.BASE_DIR / "commands/static/commands/status.css").read_text()
     assert re.search(r"\.cmd-superseded[^{]*\{ background: #757575; \}", css)  # grey
+
+
+def test_a_command_is_titled_by_its_vessels_name_and_listed_with_its_source(
+    admin_ui: Client, vessel_a: Vessel, vessel_b: Vessel
+) -> None:
+    # vessel_b's id is not 1: a title with the id would read "hold → 2".
+    command = command_enqueue(vessel=vessel_b, kind="hold", params={}, source=Source.MAP)
+    assert str(command) == "hold → SPAB 2 (queued)"
+    page = admin_ui.get(f"/admin/commands/command/{command.pk}/change/").content.decode()
+    assert "hold → SPAB 2 (queued)" in page
+    assert f"hold → {vessel_b.pk}" not in page
+    command_enqueue(vessel=vessel_a, kind="arm", params={}, source=Source.ADMIN)
+    changelist = admin_ui.get("/admin/commands/command/").content.decode()
+    assert '<td class="field-source">Map</td>' in changelist
+    assert '<td class="field-source">Admin</td>' in changelist
+    only_map = admin_ui.get("/admin/commands/command/?source__exact=map").content.decode()
+    assert '<td class="field-source">Map</td>' in only_map
+    assert '<td class="field-source">Admin</td>' not in only_map
 
 
 def test_commands_and_keys_are_never_deleted_from_the_admin(

@@ -14,6 +14,7 @@ from rest_framework.test import APIClient
 from commands.lifecycle import Status
 from commands.models import Command
 from commands.services import command_cancel, command_enqueue
+from tests.conftest import give_position
 from tests.support import BROWSER_HEADERS, COMMANDS, ack_url
 from vessels.models import Vessel
 
@@ -54,6 +55,7 @@ def test_boat_b_cannot_tell_a_foreign_uid_from_a_missing_one(
 
 
 def test_a_poll_lists_open_commands_oldest_first(boat_a: APIClient, vessel_a: Vessel) -> None:
+    give_position(vessel_a, lat=-31.01, lon=115.0)
     arm = command_enqueue(vessel=vessel_a, kind="arm", params={})
     nav = command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -31, "lon": 115})
     response = boat_a.get(COMMANDS)

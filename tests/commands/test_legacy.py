@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from rest_framework.test import APIClient
 
 from commands.lifecycle import Status
@@ -10,6 +11,13 @@ from commands.services import command_enqueue
 from tests.conftest import boat_client
 from tests.support import LEGACY_COMMANDS
 from vessels.models import Vessel
+
+
+@pytest.fixture(autouse=True)
+def _no_move_to_limit(settings) -> None:
+    # These tests are about delivery, not how far a move_to may go (MOVE_TO_MAX_M,
+    # tests/commands/test_move_limit.py): their vessels have no fix and far-apart targets.
+    settings.MOVE_TO_MAX_M = 0
 
 
 def test_it_answers_listing_2_with_the_command_uid_as_task_id(

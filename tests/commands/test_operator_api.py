@@ -12,6 +12,7 @@ from rest_framework.test import APIClient
 from commands.lifecycle import Status
 from commands.models import Command
 from commands.services import command_ack, command_claim_open, command_enqueue
+from tests.conftest import give_position
 from tests.support import cancel_url, commands_url, iso
 from vessels.models import Vessel
 
@@ -40,6 +41,7 @@ def test_it_lists_a_vessels_commands_newest_first_with_their_history(
 def test_it_creates_a_command_through_the_catalog(
     operator: APIClient, vessel_a: Vessel, operator_user: User
 ) -> None:
+    give_position(vessel_a, lat=-32.01, lon=115.7)
     response = operator.post(
         commands_url(), {"kind": "move_to", "params": {"lat": -32, "lon": 115.7}}, format="json"
     )
@@ -51,6 +53,17 @@ def test_it_creates_a_command_through_the_catalog(
     assert (command.source, command.created_by) == ("api", "alice")
     assert body["params"] == {"lat": -32.0, "lon": 115.7}
     assert body["events"][0]["to_status"] == "queued"
+
+
+@pytest.mark.parametrize(("body", "source"), [({}, "api"), ({"source": "map"}, "map")])
+def test_a_created_command_records_whether_it_came_from_a_script_or_the_map(
+    operator: APIClient, vessel_a: Vessel, body: dict[str, Any], source: str
+) -> None:
+    response = operator.post(commands_url(), {"kind": "hold", **body}, format="json")
+    assert (response.status_code, response.json()["source"]) == (201, source)
+    command = Command.objects.get()
+    assert (command.source, command.created_by) == (source, "alice")
+    assert command.events.get().detail == f"via {source}"
 
 
 def test_a_created_command_may_carry_its_own_expiry(operator: APIClient, vessel_a: Vessel) -> None:
@@ -74,6 +87,19 @@ def test_a_created_command_may_carry_its_own_expiry(operator: APIClient, vessel_
         ("spab", {"kind": "arm", "params": {"force": 1}}, "params", "unknown parameter 'force'"),
         ("spab", {"kind": "move_to", "params": [1, 2]}, "params", "params must be an object"),
         ("glider", {"kind": "fhead", "params": {"bearing": 360}}, "params", "bearing must be"),
+        (  # a typed 400 must never become 040° (issue 16 §3)
+            "glider",
+            {"kind": "fhead", "params": {"bearing": 400}, "source": "map"},
+            "params",
+            "bearing must be between 0 and 359 (got 400)",
+        ),
+        ("glider", {"kind": "fhead", "params": {"bearing": -20}}, "params", "(got -20)"),
+        # An API client is a script or the map: it cannot pass for the admin, an SMS, a vessel.
+        ("spab", {"kind": "hold", "source": "admin"}, "source", "must be api or map (got 'admin')"),
+        ("spab", {"kind": "hold", "source": "sms"}, "source", "must be api or map"),
+        ("spab", {"kind": "hold", "source": "vessel"}, "source", "must be api or map"),
+        ("spab", {"kind": "hold", "source": "system"}, "source", "must be api or map"),
+        ("spab", {"kind": "hold", "source": ["map"]}, "source", "must be api or map"),
         ("spab", {"params": {}}, "kind", "This field is required."),
         ("spab", {"kind": "hold", "expires_at": "soon"}, "expires_at", "Datetime has wrong"),
         (

@@ -224,23 +224,25 @@ def test_an_operator_cannot_cancel_a_command_the_vessel_only_reports(glider):
 
 
 def test_a_reported_command_never_passes_for_an_operators(glider_boat, glider):
-    """A vessel key files only SMS or system commands, under the vessel's own name."""
+    """A vessel key files only SMS or vessel commands, under the vessel's own name."""
     body = {
         "commands": [
             wire(uuid.uuid4(), source="admin", created_by="alice"),
             wire(uuid.uuid4(), source="api"),
-            wire(uuid.uuid4(), source="system", created_by="alice"),
+            wire(uuid.uuid4(), source="map"),
+            wire(uuid.uuid4(), source="vessel", created_by="alice"),
+            wire(uuid.uuid4(), source="system", created_by="bob"),  # vessel's older name
             wire(uuid.uuid4(), created_by="x" * 150),
         ]
     }
     answer = glider_boat.post(REPORT, body, format="json").json()
-    assert answer["accepted"] == 2
-    assert [r["index"] for r in answer["rejected"]] == [0, 1]
+    assert answer["accepted"] == 3
+    assert [r["index"] for r in answer["rejected"]] == [0, 1, 2]
     assert all(set(r["errors"]) == {"source"} for r in answer["rejected"])
     by = sorted(Command.objects.values_list("source", "created_by"))
     assert by[0] == ("sms", "vessel:glider/" + "x" * (150 - len("vessel:glider/")))
-    assert by[1] == ("system", "vessel:glider/alice")
-    assert not Command.objects.filter(source__in=["admin", "api"]).exists()
+    assert by[1:] == [("vessel", "vessel:glider/alice"), ("vessel", "vessel:glider/bob")]
+    assert not Command.objects.filter(source__in=["admin", "api", "map", "system"]).exists()
 
 
 def test_a_report_with_implausible_or_disordered_times_is_rejected_naming_the_field(

@@ -25,6 +25,13 @@ from vessels.models import Vessel
 pytestmark = pytest.mark.django_db
 
 
+@pytest.fixture(autouse=True)
+def _no_move_to_limit(settings) -> None:
+    # These tests are about the lifecycle, not how far a move_to may go (MOVE_TO_MAX_M,
+    # tests/commands/test_move_limit.py): their vessels have no fix and far-apart targets.
+    settings.MOVE_TO_MAX_M = 0
+
+
 def move_to(vessel: Vessel, lat: float = -31.95, **kwargs: object) -> Command:
     return command_enqueue(
         vessel=vessel, kind="move_to", params={"lat": lat, "lon": 115.86}, **kwargs

@@ -21,6 +21,7 @@ from edge_client.geo import distance_m
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.mission import build_mission
 from telemetry.models import Fix
+from tests.conftest import give_position
 from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import (
     ModemStandIn,
@@ -110,6 +111,7 @@ def test_move_to_end_to_end(live_server, boat, rig):
     rig.sim()
     rig.client(live_server.url, key)
     wait_until(lambda: Fix.objects.filter(vessel=vessel).exists(), 20, "a first fix")
+    vessel.refresh_from_db()  # its last fix: a move_to is measured from it (MOVE_TO_MAX_M)
     target = (-31.9790, 115.8210)  # ~145 m north-east
     params = {"lat": target[0], "lon": target[1]}
     command = command_enqueue(vessel=vessel, kind="move_to", params=params, created_by="test")
@@ -128,6 +130,7 @@ def test_a_command_waiting_when_the_boat_boots_is_carried_out(live_server, boat,
     """The field report: queued before the boat starts, the autopilot not ready to take GUIDED
     for its first seconds; the client waits for the position instead of failing the command."""
     vessel, key = boat
+    give_position(vessel, *HOME)  # where it last reported, before this boot (MOVE_TO_MAX_M)
     target = (-31.9795, 115.8205)
     command = command_enqueue(
         vessel=vessel,

@@ -17,13 +17,14 @@ pytestmark = pytest.mark.django_db
 def test_the_vessel_page_shows_keys_recent_fixes_and_commands(
     admin_ui: Client, reported: Vessel, key_a: str
 ) -> None:
-    command_enqueue(vessel=reported, kind="hold", params={})
+    command_enqueue(vessel=reported, kind="hold", params={}, source="map")
     page = admin_ui.get(f"/admin/vessels/vessel/{reported.pk}/change/").content.decode()
     assert key_a[:12] in page  # the prefix, never the key
     assert key_a not in page
     assert "Issue a new key" in page
     assert "2026-11-23 10:00:00" in page
     assert "hold" in page and "queued" in page
+    assert "<th>source</th>" in page and "<td>Map</td>" in page
 
 
 def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(

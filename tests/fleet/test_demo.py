@@ -17,6 +17,7 @@ from commands.models import Command
 from commands.services import command_enqueue
 from edge_client.geo import distance_m
 from telemetry.models import Fix
+from tests.conftest import give_position
 from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import start, stop, wait_until
 from vessels.keys import hash_key
@@ -40,6 +41,7 @@ def test_it_runs_a_boat_that_reports_and_carries_out_a_command_then_stops_cleanl
     live_server, vessel_a: Vessel, key_a: str, tmp_path: Path
 ) -> None:
     target = {"lat": TARGET[0], "lon": TARGET[1]}
+    give_position(vessel_a, *START)  # where it last reported (a move_to is measured from it)
     command = command_enqueue(vessel=vessel_a, kind="move_to", params=target)
     log = tmp_path / "boat.log"
     boat = start(

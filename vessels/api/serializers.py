@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+from typing import Any
+
 from django.utils import timezone
 from rest_framework import serializers
 
@@ -18,6 +20,7 @@ class VesselSerializer(serializers.ModelSerializer):
             "active",
             "telemetry_period_s",
             "cruise_speed_mps",
+            "move_to_max_m",
             "status",
             "last_seen_at",
             "last_fix_at",
@@ -28,6 +31,24 @@ class VesselSerializer(serializers.ModelSerializer):
 
     def get_status(self, vessel: Vessel) -> str:
         return vessel.status(timezone.now())
+
+
+class VesselUpdateSerializer(serializers.ModelSerializer):
+    """What an operator may change through the API (PATCH); anything else is refused by name
+    rather than silently ignored."""
+
+    class Meta:
+        model = Vessel
+        fields = ["move_to_max_m"]
+
+    def validate(self, attrs: dict[str, Any]) -> dict[str, Any]:
+        given = self.initial_data if isinstance(self.initial_data, dict) else {}
+        unknown = sorted(set(given) - set(self.Meta.fields))
+        if unknown:
+            raise serializers.ValidationError(
+                {unknown[0]: [f"cannot be changed here (only {', '.join(self.Meta.fields)})"]}
+            )
+        return attrs
 
 
 class _LastFixSerializer(serializers.Serializer):

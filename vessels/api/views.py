@@ -10,23 +10,35 @@ from django.urls import reverse
 from drf_spectacular.utils import OpenApiParameter, OpenApiResponse, extend_schema
 from rest_framework import viewsets
 from rest_framework.request import Request
+from rest_framework.response import Response
 from rest_framework.views import APIView
 
-from vessels.api.serializers import FleetSerializer, VesselSerializer
+from vessels.api.serializers import FleetSerializer, VesselSerializer, VesselUpdateSerializer
 from vessels.models import Vessel
 from vessels.permissions import ModelPermissions
 from vessels.selectors import fleet_vessels, vessel_list
+from vessels.services import vessel_update
 
 
 class VesselViewSet(viewsets.ReadOnlyModelViewSet):
-    """Vessels with their last fix and state (reporting, overdue, never seen)."""
+    """Vessels with their last fix and state (reporting, overdue, never seen); PATCH changes
+    an operator's settings of one (`move_to_max_m`; needs vessels.change_vessel)."""
 
     serializer_class = VesselSerializer
     lookup_field = "slug"
     pagination_class = None
+    http_method_names = ["get", "patch", "head", "options"]
 
     def get_queryset(self):  # noqa: ANN201 (DRF hook)
         return vessel_list()
+
+    @extend_schema(request=VesselUpdateSerializer, responses={200: VesselSerializer})
+    def partial_update(self, request: Request, slug: str) -> Response:
+        vessel = self.get_object()
+        incoming = VesselUpdateSerializer(vessel, data=request.data, partial=True)
+        incoming.is_valid(raise_exception=True)
+        vessel = vessel_update(vessel=vessel, fields=incoming.validated_data)
+        return Response(VesselSerializer(vessel).data)
 
 
 LAST_FIX_FIELDS = ("time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings")

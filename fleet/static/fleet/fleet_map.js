@@ -11,6 +11,9 @@
   var OPEN = ["queued", "sent", "acknowledged"];
   var CANCELLABLE = ["queued", "sent"];
   var COMMANDS_POLL_MS = 3000;
+  // A move_to farther than this is warned about in the confirmation: a boat's usual move is a
+  // few hundred metres; the server refuses past the vessel's limit (MOVE_TO_MAX_M, 5 km).
+  var MOVE_WARN_M = 2000;
   var FIT_MAX_ZOOM = 14;
 
   function FleetMap(map, cfg) {
@@ -316,10 +319,9 @@
       var pickBox = el("div", { class: "pick-hint" }, [el("p", { text: hint })]);
       if (this.pick.input === "bearing") {
         var input = el("input", { type: "number", min: "0", max: "359", step: "1", name: "bearing", class: "vTextField bearing-input" });
-        pickBox.appendChild(el("p", {}, [input, " ° ", el("button", { type: "button", class: "button", text: "Use", onclick: function () {
-          var value = parseInt(input.value, 10);
-          if (isNaN(value)) { return; }
-          self.askBearing(self.pick.action, ((value % 360) + 360) % 360, null);
+        input.value = this.pick.typed || "";
+        pickBox.appendChild(el("p", {}, [input, " ° ", el("button", { type: "button", class: "button use-bearing", text: "Use", onclick: function () {
+          self.typedBearing(input.value);
         } })]));
       }
       pickBox.appendChild(el("button", { type: "button", class: "link-button", text: "Cancel", onclick: function () { self.cancelPick(); } }));
@@ -328,6 +330,7 @@
     if (this.pending) {
       var confirmBox = box.appendChild(el("div", { class: "confirm-box" }, [
         el("p", { class: "confirm-text", text: this.pending.text }),
+        this.pending.warning ? el("p", { class: "confirm-warning", text: this.pending.warning }) : null,
         el("button", { type: "button", class: "button default confirm-queue", text: "Queue", onclick: function () { self.send(); } }),
         " ",
         el("button", { type: "button", class: "button confirm-cancel", text: "Cancel", onclick: function () { self.cancelPick(); } }),
@@ -377,14 +380,17 @@
     if (this.pick.input === "point") {
       var where = S.fmtDDM(latlng.lat, latlng.lng);
       var text = "Move " + v.name + " to " + where + "?";
+      var warning = null;
       if (fix) {
         var d = S.geo.distance(fix.lat, fix.lon, latlng.lat, latlng.lng);
         var b = S.geo.bearing(fix.lat, fix.lon, latlng.lat, latlng.lng);
         text += " " + S.fmtDistance(d) + " at " + pad3(Math.round(b) % 360) + "° from its last position.";
+        if (d > MOVE_WARN_M) { warning = "This is " + S.fmtDistance(d) + " away — far beyond a normal move."; }
       } else {
         text += " (its position is unknown: no fix yet)";
+        warning = "With no fix, how far this is cannot be checked: the server refuses it unless " + v.name + "'s move_to limit is off (0).";
       }
-      this.pending = { kind: action.kind, label: action.label, text: text,
+      this.pending = { kind: action.kind, label: action.label, text: text, warning: warning,
         params: { lat: round6(latlng.lat), lon: round6(latlng.lng) } };
       this.renderActions();
     } else if (this.pick.input === "bearing") {
@@ -392,6 +398,21 @@
       var bearing = Math.round(S.geo.bearing(fix.lat, fix.lon, latlng.lat, latlng.lng)) % 360;
       this.askBearing(action, bearing, S.geo.distance(fix.lat, fix.lon, latlng.lat, latlng.lng));
     }
+  };
+
+  // A typed heading is sent as typed or not at all: 400 once wrapped to 040° and the boat
+  // turned the wrong way. The catalog refuses the same (0-359, whole degrees).
+  FleetMap.prototype.typedBearing = function (raw) {
+    var text = String(raw).trim(), value = Number(text);
+    this.pick.typed = text;
+    if (text === "" || !Number.isInteger(value) || value < 0 || value > 359) {
+      this.message = { kind: "error", text: "A heading is a whole number of degrees from 0 to 359" +
+        (text ? " (you typed " + text + ")." : ".") };
+      this.renderActions();
+      return;
+    }
+    this.message = null;
+    this.askBearing(this.pick.action, value, null);
   };
 
   FleetMap.prototype.askBearing = function (action, bearing, distance) {
@@ -411,7 +432,8 @@
       method: "POST",
       credentials: "same-origin",
       headers: { "Content-Type": "application/json", Accept: "application/json", "X-CSRFToken": this.cfg.csrfToken },
-      body: JSON.stringify({ kind: pending.kind, params: pending.params }),
+      // source "map": the history says the command came from the map, not a script.
+      body: JSON.stringify({ kind: pending.kind, params: pending.params, source: "map" }),
     })
       .then(function (r) { return r.json().catch(function () { return {}; }).then(function (body) { return { r: r, body: body }; }); })
       .then(function (res) {
@@ -507,7 +529,7 @@
         " ",
         el("span", { class: "muted", text: summary(c.params) }),
         el("br"),
-        el("span", { class: "muted small" }, [self.ageSpan(c.created_at, " ago"), " by " + (c.created_by || c.source) + (c.result_detail ? " · " + c.result_detail : "")]),
+        el("span", { class: "muted small" }, [self.ageSpan(c.created_at, " ago"), (c.created_by ? " by " + c.created_by : "") + " via " + c.source + (c.result_detail ? " · " + c.result_detail : "")]),
       ]);
       if (self.cfg.canCancel && CANCELLABLE.indexOf(c.status) >= 0) {
         item.appendChild(el("button", { type: "button", class: "link-button cancel-command", text: "cancel", onclick: function () { self.cancelCommand(c.uid, c.kind); } }));
@@ -528,10 +550,18 @@
     }).join(", ");
   }
 
+  // The API's error body as a sentence: {"detail": {"params": ["…"]}} reads "…".
   function describe(body) {
     if (!body) { return "no detail"; }
     var detail = body.detail !== undefined ? body.detail : body;
-    return typeof detail === "string" ? detail : JSON.stringify(detail);
+    if (typeof detail === "string") { return detail; }
+    if (detail && typeof detail === "object" && !Array.isArray(detail)) {
+      return Object.keys(detail).map(function (field) {
+        var said = [].concat(detail[field]).join(" ");
+        return field === "params" || field === "non_field_errors" ? said : field + ": " + said;
+      }).join("; ");
+    }
+    return JSON.stringify(detail);
   }
 
   function pad3(n) { return ("00" + n).slice(-3); }
