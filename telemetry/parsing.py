@@ -23,6 +23,7 @@ LEGACY_TICKS_PER_S = 100_000
 MAX_READINGS = 64
 MAX_READING_NAME = 50
 
+LEGACY_FIELDS = frozenset({"timestamp", "latitude", "longitude"})
 V1_FIELDS = frozenset({"time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings"})
 
 
@@ -230,7 +231,9 @@ def parse_legacy_fix(
 
     A timestamp in neither known unit (e.g. the old client's milliseconds since boot) gets the
     receive time, offset by ``index`` microseconds so fixes of one batch stay distinct, and the
-    raw value is kept as reading `timestamp_raw`.
+    raw value is kept as reading `timestamp_raw`. Every other key is a reading: at most
+    MAX_READINGS of them, each name at most MAX_READING_NAME characters (v1's limits), or the
+    record is rejected saying which.
     """
     if not isinstance(record, dict):
         raise FixErrors({"non_field_errors": "each record must be a JSON object"})
@@ -239,15 +242,20 @@ def parse_legacy_fix(
         record.get("latitude"), record.get("longitude"), errors, names=("latitude", "longitude")
     )
     readings: dict[str, float] = {}
-    for name, value in record.items():
-        if name in {"timestamp", "latitude", "longitude"}:
-            continue
-        number = _number(value)
+    names = [name for name in record if name not in LEGACY_FIELDS]
+    if len(names) > MAX_READINGS:
+        # v1's cap: a record of thousands made every page and fleet poll carry them all.
+        errors["readings"] = f"has {len(names)} values (at most {MAX_READINGS})"
+        names = []
+    for name in names:
+        number = _number(record[name])
         if not _storable(name):
             errors[_shown(name)] = "name holds a character that cannot be stored"
+        elif len(name) > MAX_READING_NAME:
+            errors[name[:20] + "…"] = f"name is longer than {MAX_READING_NAME} characters"
         elif number is None:
             errors[name] = "must be a number"
-        elif len(name) <= MAX_READING_NAME:
+        else:
             readings[name] = number
     recorded_at = legacy_time(record.get("timestamp"), now=now, max_future_s=max_future_s)
     if recorded_at is None:
