@@ -107,11 +107,24 @@ def test_a_command_the_catalog_refuses_for_the_vessel_is_not_stored(glider):
     assert not Command.objects.exists()
 
 
-def test_another_vessels_uid_is_refused_and_left_alone(glider, vessel_a, command_a):
-    with pytest.raises(CommandError, match="another command"):
-        report(glider, command_a.uid, "done")
+def test_another_vessels_uid_is_answered_as_an_unknown_one_and_left_alone(
+    glider, vessel_a, command_a, caplog
+):
+    """The glider must not learn that vessel A's uid exists: the same answer as for a fresh
+    uid (checked, then changed), nothing written, a warning for the operators."""
+    events = history(command_a)
+    _, changed = report(glider, command_a.uid, "done")
+    assert changed
     command_a.refresh_from_db()
     assert command_a.status == "queued" and command_a.vessel == vessel_a
+    assert list(Command.objects.values_list("pk", flat=True)) == [command_a.pk]
+    assert history(command_a) == events
+    assert f"glider reported another vessel's command uid {command_a.uid}" in caplog.text
+    # The checks of an unknown uid still apply, with the same answers.
+    with pytest.raises(CatalogError):
+        report(glider, command_a.uid, "done", params={"bearing": 999})
+    with pytest.raises(CatalogError):
+        report(glider, uuid.uuid4(), "done", params={"bearing": 999})
 
 
 def test_the_shores_own_command_is_left_alone_and_counted_a_duplicate(glider):
@@ -163,8 +176,7 @@ def wire(uid: uuid.UUID, status: str = "done", **extra: Any) -> dict[str, Any]:
     }  # fmt: skip
 
 
-def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, glider, vessel_a):
-    other = command_enqueue(vessel=vessel_a, kind="hold", params={})
+def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, glider):
     good, repeated = uuid.uuid4(), uuid.uuid4()
     body = {
         "commands": [
@@ -174,7 +186,6 @@ def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, g
             "not an object",
             wire(uuid.uuid4(), params={"bearing": 999}),
             wire(uuid.uuid4(), status="lost"),
-            wire(other.uid),
             {"uid": "nope", "kind": "fhead"},
         ]
     }
@@ -182,10 +193,9 @@ def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, g
     assert response.status_code == 200
     answer = response.json()
     assert (answer["accepted"], answer["duplicates"]) == (2, 1)
-    assert [r["index"] for r in answer["rejected"]] == [3, 4, 5, 6, 7]
+    assert [r["index"] for r in answer["rejected"]] == [3, 4, 5, 6]
     assert "bearing" in str(answer["rejected"][1]["errors"])
     assert answer["rejected"][2]["errors"] == {"status": ["unknown status 'lost'"]}
-    assert answer["rejected"][3]["errors"] == {"uid": ["this uid belongs to another command"]}
     assert Command.objects.get(uid=good).status == "done"
     assert set(Command.objects.filter(reported=True).values_list("uid", flat=True)) == {
         good,
@@ -193,6 +203,21 @@ def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, g
     }
     again = glider_boat.post(REPORT, {"commands": [wire(good), wire(repeated)]}, format="json")
     assert again.json() == {"accepted": 1, "duplicates": 1, "rejected": []}
+
+
+def test_another_vessels_uid_gets_the_answer_of_a_fresh_one(glider_boat, glider, vessel_a):
+    """Reporting boat A's uid once said "this uid belongs to another command"."""
+    other = command_enqueue(vessel=vessel_a, kind="hold", params={})
+    for extra in ({}, {"params": {"bearing": 999}}, {"status": "lost"}, {"finished_at": None}):
+        answers = [
+            glider_boat.post(REPORT, {"commands": [wire(uid, **extra)]}, format="json").json()
+            for uid in (other.uid, uuid.uuid4())
+        ]
+        assert answers[0] == answers[1]
+    assert answers[0]["rejected"] == [] and answers[0]["accepted"] == 1
+    other.refresh_from_db()
+    assert (other.vessel, other.status, other.reported) == (vessel_a, "queued", False)
+    assert Command.objects.filter(vessel=glider).count() == 2  # the two fresh ones accepted
 
 
 def test_the_report_needs_a_vessel_key_and_a_commands_list(anonymous, revoked_boat, glider_boat):
