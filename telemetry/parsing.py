@@ -15,6 +15,7 @@ from typing import Any
 # The plausibility rule is shared with the other uploads (reported commands, the SMS log).
 from vessels.clock import PLAUSIBLE_FROM as PLAUSIBLE_FROM  # re-exported
 from vessels.clock import check_plausible
+from vessels.text import unstorable
 
 UTC = dt.UTC
 # The old Shoreside server counted time in units of 10 µs since 2015-01-01 (DESIGN §5).
@@ -76,6 +77,8 @@ def _number(value: Any) -> float | None:
 def parse_time(value: Any, *, now: dt.datetime, max_future_s: float) -> dt.datetime:
     """ISO 8601 with an offset, or Unix seconds; within [PLAUSIBLE_FROM, now + max_future_s]."""
     if isinstance(value, str):
+        if problem := unstorable(value):  # fromisoformat stops at a NUL: "...Z\x00junk" parsed
+            raise ValueError(problem)
         try:
             when = dt.datetime.fromisoformat(value)
         except ValueError:

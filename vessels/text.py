@@ -42,7 +42,7 @@ def json_unstorable(value: Any) -> str | None:
         elif isinstance(item, dict):
             for key in item:
                 if problem := unstorable(str(key)):
-                    return f"key {shown(str(key))!r} in {where or 'the object'}: {problem}"
+                    return f"key '{shown(str(key))}'{f' in {where}' if where else ''}: {problem}"
             # Reversed onto the stack: the first problem in reading order is the one named.
             stack.extend(
                 (f"{where}.{k}" if where else str(k), v) for k, v in reversed(item.items())

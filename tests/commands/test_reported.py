@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 import uuid
 from typing import Any
 
@@ -301,3 +302,43 @@ def test_a_known_command_cannot_move_on_with_an_implausible_time(glider):
         )
     assert raised.value.field == "finished_at"
     assert Command.objects.get(uid=uid).status == "queued"
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("created_at", "2026-11-25T06:00:00", "needs a UTC offset"),
+        ("finished_at", "2026-11-25T06:00:06", "needs a UTC offset"),
+        ("created_at", "2026-11-25T06:00:00Z\x00", "Null characters are not allowed."),
+    ],
+)
+def test_a_time_without_an_offset_or_with_a_nul_is_refused_as_telemetry_does(
+    glider_boat, glider, field, value, message
+):
+    """A naive time was taken as UTC here while telemetry refused it: one rule now."""
+    body = json.dumps({"commands": [wire(uuid.uuid4(), **{field: value}), wire(uuid.uuid4())]})
+    answer = glider_boat.post(REPORT, body, content_type="application/json").json()
+    assert answer["accepted"] == 1
+    (rejected,) = answer["rejected"]
+    assert rejected["index"] == 0 and message in rejected["errors"][field][0]
+    assert Command.objects.count() == 1
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"bearing": "23\x000"}, "bearing: Null characters are not allowed."),
+        ({"bearing\x00": 230}, "key 'bearing\\x00': Null characters"),
+        ({"bearing": 230, "x\ud800": "y"}, "key 'x\\ud800': Surrogate"),
+    ],
+)
+def test_params_the_database_cannot_store_are_rejected_by_index(
+    glider_boat, glider, params, message
+):
+    """The lone surrogate in a name was a 500: the catalog's error echoed it into the reply."""
+    body = json.dumps({"commands": [wire(uuid.uuid4(), params=params), wire(uuid.uuid4())]})
+    response = glider_boat.post(REPORT, body, content_type="application/json")
+    assert response.status_code == 200
+    answer = response.json()
+    assert answer["accepted"] == 1 and [r["index"] for r in answer["rejected"]] == [0]
+    assert answer["rejected"][0]["errors"]["params"][0].startswith(message)
