@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import logging
 import re
 import uuid
 from collections.abc import Sequence
@@ -28,6 +29,8 @@ from vessels import missions
 from vessels.clock import check_plausible
 from vessels.models import Mission, Vessel
 from vessels.services import vessel_bump_commands_version
+
+logger = logging.getLogger(__name__)
 
 # Which timestamp field each status sets.
 _STAMP = {
@@ -681,8 +684,9 @@ def command_record_reported(
     An unknown uid becomes a ``reported`` command of ``vessel``, checked by the catalog for
     the vessel's kind, with an event per status it went through (actor "vessel"). A known
     reported uid moves forward to ``status``; a repeated or older report changes nothing. The
-    shore's own commands are left alone (their acks carry their state): unchanged. Raises
-    CatalogError, CommandError (another vessel's uid) or TransitionError (an illegal move).
+    shore's own commands are left alone (their acks carry their state): unchanged. Another
+    vessel's uid is answered as an unknown one would be, and nothing is written. Raises
+    CatalogError, CommandError or TransitionError (an illegal move).
     """
     now = now or timezone.now()
     try:
@@ -699,9 +703,12 @@ def command_record_reported(
     _check_reported_times({"created_at": created_at, **stamps}, now=now)
     detail = _storable_text(result_detail)
     existing = Command.objects.select_for_update().filter(uid=uid).first()
-    if existing is not None:
-        if existing.vessel_id != vessel.pk:
-            raise CommandError("this uid belongs to another command", field="uid")
+    # Another vessel's uid goes through the checks of an unknown uid and is answered the same
+    # (changed), but nothing is written: a boat cannot learn that a uid exists elsewhere, as
+    # with acks (_get_for_vessel). A random uid never collides by chance; it is a fault or a
+    # probe, logged for the operators.
+    foreign = existing is not None and existing.vessel_id != vessel.pk
+    if existing is not None and not foreign:
         if not existing.reported:
             return existing, False
         current = Status(existing.status)
@@ -724,12 +731,15 @@ def command_record_reported(
         status=Status.QUEUED,
         reported=True,
     )
-    command.full_clean()
+    command.full_clean(validate_unique=not foreign)
     path = _reported_path(
         Status.QUEUED, reported, sent=sent_at is not None, acknowledged=acknowledged_at is not None
     )
     for step_from, step_to in zip([Status.QUEUED, *path], path, strict=False):
         check_transition(step_from, step_to)  # before writing: an illegal report leaves nothing
+    if foreign:
+        logger.warning("%s reported another vessel's command uid %s: ignored", vessel.slug, uid)
+        return command, True
     command.save()
     # created_at is auto_now_add: the vessel's own time is written after the insert.
     Command.objects.filter(pk=command.pk).update(created_at=created)

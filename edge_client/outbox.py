@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import sqlite3
 import threading
 import time
@@ -65,6 +66,7 @@ CREATE TABLE IF NOT EXISTS commands (
 );
 """
 
+UNSENDABLE = re.compile("[\x00\ud800-\udfff]")
 EVICTION_LOG_EVERY_S = 600.0
 # Remember finished command uids this long; the server stops offering a command once acked.
 COMMAND_MEMORY_S = 30 * 24 * 3600
@@ -264,7 +266,10 @@ class Outbox:
         return excess
 
     def add_ack(self, uid: str, status: str, detail: str = "") -> None:
-        body = json.dumps({"uid": uid, "status": status, "detail": detail[:1000]})
+        # The shore refuses NUL and lone surrogates in any text (a 400, and such an ack would be
+        # dropped); the autopilot's words may hold them, so they go as U+FFFD.
+        detail = UNSENDABLE.sub("\ufffd", detail[:1000])
+        body = json.dumps({"uid": uid, "status": status, "detail": detail})
         with self._tx(durable=True) as db:
             self._write_pending(db)  # the same fsync makes the waiting fixes durable too
             db.execute(

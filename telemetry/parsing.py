@@ -15,6 +15,7 @@ from typing import Any
 # The plausibility rule is shared with the other uploads (reported commands, the SMS log).
 from vessels.clock import PLAUSIBLE_FROM as PLAUSIBLE_FROM  # re-exported
 from vessels.clock import check_plausible
+from vessels.text import unstorable
 
 UTC = dt.UTC
 # The old Shoreside server counted time in units of 10 µs since 2015-01-01 (DESIGN §5).
@@ -23,6 +24,7 @@ LEGACY_TICKS_PER_S = 100_000
 MAX_READINGS = 64
 MAX_READING_NAME = 50
 
+LEGACY_FIELDS = frozenset({"timestamp", "latitude", "longitude"})
 V1_FIELDS = frozenset({"time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings"})
 
 
@@ -75,6 +77,8 @@ def _number(value: Any) -> float | None:
 def parse_time(value: Any, *, now: dt.datetime, max_future_s: float) -> dt.datetime:
     """ISO 8601 with an offset, or Unix seconds; within [PLAUSIBLE_FROM, now + max_future_s]."""
     if isinstance(value, str):
+        if problem := unstorable(value):  # fromisoformat stops at a NUL: "...Z\x00junk" parsed
+            raise ValueError(problem)
         try:
             when = dt.datetime.fromisoformat(value)
         except ValueError:
@@ -230,7 +234,9 @@ def parse_legacy_fix(
 
     A timestamp in neither known unit (e.g. the old client's milliseconds since boot) gets the
     receive time, offset by ``index`` microseconds so fixes of one batch stay distinct, and the
-    raw value is kept as reading `timestamp_raw`.
+    raw value is kept as reading `timestamp_raw`. Every other key is a reading: at most
+    MAX_READINGS of them, each name at most MAX_READING_NAME characters (v1's limits), or the
+    record is rejected saying which.
     """
     if not isinstance(record, dict):
         raise FixErrors({"non_field_errors": "each record must be a JSON object"})
@@ -239,15 +245,20 @@ def parse_legacy_fix(
         record.get("latitude"), record.get("longitude"), errors, names=("latitude", "longitude")
     )
     readings: dict[str, float] = {}
-    for name, value in record.items():
-        if name in {"timestamp", "latitude", "longitude"}:
-            continue
-        number = _number(value)
+    names = [name for name in record if name not in LEGACY_FIELDS]
+    if len(names) > MAX_READINGS:
+        # v1's cap: a record of thousands made every page and fleet poll carry them all.
+        errors["readings"] = f"has {len(names)} values (at most {MAX_READINGS})"
+        names = []
+    for name in names:
+        number = _number(record[name])
         if not _storable(name):
             errors[_shown(name)] = "name holds a character that cannot be stored"
+        elif len(name) > MAX_READING_NAME:
+            errors[name[:20] + "…"] = f"name is longer than {MAX_READING_NAME} characters"
         elif number is None:
             errors[name] = "must be a number"
-        elif len(name) <= MAX_READING_NAME:
+        else:
             readings[name] = number
     recorded_at = legacy_time(record.get("timestamp"), now=now, max_future_s=max_future_s)
     if recorded_at is None:

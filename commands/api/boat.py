@@ -23,8 +23,9 @@ from commands.errors import CommandError
 from commands.lifecycle import Status
 from commands.models import Command, Source
 from commands.services import command_ack, command_claim_open, command_record_reported
-from vessels.api.boat import BoatView
+from vessels.api.boat import AwareDateTimeField, BoatView
 from vessels.models import Vessel
+from vessels.text import json_unstorable, unstorable
 
 
 def commands_etag(vessel: Vessel) -> str:
@@ -119,6 +120,8 @@ class AckView(BoatView):
         detail = data.get("detail", "")
         if not isinstance(detail, str):
             raise ValidationError({"detail": ["must be a string"]})
+        if problem := unstorable(detail):  # the boat API's one rule: refused, never rewritten
+            raise ValidationError({"detail": [problem]})
         command, _changed = command_ack(
             vessel=self.vessel(request), uid=uid, status=data.get("status"), detail=detail
         )
@@ -143,18 +146,24 @@ class ReportedCommandIn(serializers.Serializer):
         help_text="sms or vessel (system, the older name, is taken as vessel)",
     )
     created_by = serializers.CharField(max_length=150, required=False, allow_blank=True)
-    created_at = serializers.DateTimeField(help_text="when the vessel created it")
+    created_at = AwareDateTimeField(help_text="when the vessel created it")
     # A plain string, checked by the service: a ChoiceField would give the OpenAPI schema a
     # second "status" enum colliding with the operator API's.
     status = serializers.CharField(
         max_length=20, help_text="its status there: " + ", ".join(s.value for s in Status)
     )
-    sent_at = serializers.DateTimeField(required=False, allow_null=True)
-    acknowledged_at = serializers.DateTimeField(required=False, allow_null=True)
-    finished_at = serializers.DateTimeField(required=False, allow_null=True)
+    sent_at = AwareDateTimeField(required=False, allow_null=True)
+    acknowledged_at = AwareDateTimeField(required=False, allow_null=True)
+    finished_at = AwareDateTimeField(required=False, allow_null=True)
     result_detail = serializers.CharField(
         max_length=RESULT_DETAIL_MAX, required=False, allow_blank=True, trim_whitespace=False
     )
+
+    def validate_params(self, value: dict[str, Any]) -> dict[str, Any]:
+        # Before the catalog, whose error would echo a bad name into a reply it cannot encode.
+        if problem := json_unstorable(value):
+            raise serializers.ValidationError(problem)
+        return value
 
 
 def reports_from_body(data: Any) -> list[Any]:

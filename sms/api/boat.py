@@ -38,13 +38,19 @@ from sms.models import (
     SendStatus,
 )
 from sms.services import DETAIL_MAX, TEXT_STORE_MAX, sms_log_entry_store
-from vessels.api.boat import BoatView
+from vessels.api.boat import AwareDateTimeField, BoatView
 from vessels.clock import check_plausible
 from vessels.models import Vessel
+from vessels.text import json_size, json_unstorable
 
 # Entries per upload: the glider sends its backlog in batches of this size or fewer.
 SMS_UPLOAD_MAX_BATCH = 500
 COMMANDS_PER_SMS_MAX = 50
+# An entry's `parsed`, as compact UTF-8 JSON. Unbounded, one entry stored 1 MB that the SMS
+# log's pages then read. The largest the glider makes is about 20 KB: the language reads at
+# most MAX_TEXT (1,600) characters and echoes each part twice at worst (its text and an
+# "unknown command ..." error), a control character taking 6 bytes as JSON.
+PARSED_MAX_BYTES = 32 * 1024
 
 
 def numbers_wire(vessel: Vessel) -> list[dict[str, Any]]:
@@ -111,10 +117,10 @@ class SmsEntryIn(serializers.Serializer):
     text = serializers.CharField(
         max_length=TEXT_STORE_MAX, allow_blank=True, trim_whitespace=False, required=False
     )
-    created_at = serializers.DateTimeField(help_text="when the vessel logged it")
-    received_at = serializers.DateTimeField(required=False, allow_null=True)
-    modem_timestamp = serializers.DateTimeField(required=False, allow_null=True)
-    sent_at = serializers.DateTimeField(required=False, allow_null=True)
+    created_at = AwareDateTimeField(help_text="when the vessel logged it")
+    received_at = AwareDateTimeField(required=False, allow_null=True)
+    modem_timestamp = AwareDateTimeField(required=False, allow_null=True)
+    sent_at = AwareDateTimeField(required=False, allow_null=True)
     authorised = serializers.BooleanField(required=False, default=False)
     outcome = serializers.ChoiceField(
         Outcome.choices, required=False, allow_blank=True, help_text="incoming only"
@@ -125,7 +131,11 @@ class SmsEntryIn(serializers.Serializer):
     )
     status_detail = serializers.CharField(max_length=DETAIL_MAX, required=False, allow_blank=True)
     reference = serializers.CharField(max_length=20, required=False, allow_blank=True)
-    parsed = serializers.ListField(child=serializers.DictField(), required=False)
+    parsed = serializers.ListField(
+        child=serializers.DictField(),
+        required=False,
+        help_text=f"each part as understood; at most {PARSED_MAX_BYTES} bytes as JSON",
+    )
     reply_to = serializers.CharField(
         max_length=ORIGIN_ID_MAX, required=False, allow_null=True, help_text="the id it answers"
     )
@@ -135,6 +145,17 @@ class SmsEntryIn(serializers.Serializer):
         max_length=COMMANDS_PER_SMS_MAX,
         help_text="uids of the commands it created",
     )
+
+    def validate_parsed(self, value: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        """Free-form JSON: every string in it, keys too, must be storable (PostgreSQL's jsonb
+        refused a NUL with a 500 that lost the rest of the batch), and its size is bounded."""
+        if problem := json_unstorable(value):
+            raise serializers.ValidationError(problem)
+        if (size := json_size(value)) > PARSED_MAX_BYTES:
+            raise serializers.ValidationError(
+                f"is {size} bytes as JSON; at most {PARSED_MAX_BYTES}"
+            )
+        return value
 
     def validate(self, attrs: dict[str, Any]) -> dict[str, Any]:
         now = timezone.now()

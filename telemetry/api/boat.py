@@ -6,6 +6,7 @@ APIViews that build their JSON by hand; :func:`telemetry.services.fix_ingest` do
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from drf_spectacular.utils import extend_schema, extend_schema_field, inline_serializer
@@ -17,6 +18,8 @@ from rest_framework.response import Response
 from telemetry.api.parsers import LegacyTelemetryJSONParser, TelemetryJSONParser
 from telemetry.services import fix_ingest
 from vessels.api.boat import BoatView, LegacyBoatView, telem_ack
+
+logger = logging.getLogger(__name__)
 
 
 def records_from_body(data: Any) -> list[Any]:
@@ -93,6 +96,10 @@ class LegacyDataView(LegacyBoatView):
         for rejected in result.rejected:
             fields = ", ".join(f"{k} {v}" for k, v in rejected["errors"].items())
             message += f"; record {rejected['index']}: {fields}"
+        if result.rejected:
+            # The old client may not read its telemAck: the log is where a rejection shows.
+            # repr and cut: the names are the vessel's own text, a batch may reject hundreds.
+            logger.warning("data.cgi from %s: %.2000r", self.vessel(request).slug, message)
         ok = not result.rejected
         return Response(
             telem_ack(ok, message),

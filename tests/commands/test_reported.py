@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 import uuid
 from typing import Any
 
@@ -107,11 +108,24 @@ def test_a_command_the_catalog_refuses_for_the_vessel_is_not_stored(glider):
     assert not Command.objects.exists()
 
 
-def test_another_vessels_uid_is_refused_and_left_alone(glider, vessel_a, command_a):
-    with pytest.raises(CommandError, match="another command"):
-        report(glider, command_a.uid, "done")
+def test_another_vessels_uid_is_answered_as_an_unknown_one_and_left_alone(
+    glider, vessel_a, command_a, caplog
+):
+    """The glider must not learn that vessel A's uid exists: the same answer as for a fresh
+    uid (checked, then changed), nothing written, a warning for the operators."""
+    events = history(command_a)
+    _, changed = report(glider, command_a.uid, "done")
+    assert changed
     command_a.refresh_from_db()
     assert command_a.status == "queued" and command_a.vessel == vessel_a
+    assert list(Command.objects.values_list("pk", flat=True)) == [command_a.pk]
+    assert history(command_a) == events
+    assert f"glider reported another vessel's command uid {command_a.uid}" in caplog.text
+    # The checks of an unknown uid still apply, with the same answers.
+    with pytest.raises(CatalogError):
+        report(glider, command_a.uid, "done", params={"bearing": 999})
+    with pytest.raises(CatalogError):
+        report(glider, uuid.uuid4(), "done", params={"bearing": 999})
 
 
 def test_the_shores_own_command_is_left_alone_and_counted_a_duplicate(glider):
@@ -163,8 +177,7 @@ def wire(uid: uuid.UUID, status: str = "done", **extra: Any) -> dict[str, Any]:
     }  # fmt: skip
 
 
-def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, glider, vessel_a):
-    other = command_enqueue(vessel=vessel_a, kind="hold", params={})
+def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, glider):
     good, repeated = uuid.uuid4(), uuid.uuid4()
     body = {
         "commands": [
@@ -174,7 +187,6 @@ def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, g
             "not an object",
             wire(uuid.uuid4(), params={"bearing": 999}),
             wire(uuid.uuid4(), status="lost"),
-            wire(other.uid),
             {"uid": "nope", "kind": "fhead"},
         ]
     }
@@ -182,10 +194,9 @@ def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, g
     assert response.status_code == 200
     answer = response.json()
     assert (answer["accepted"], answer["duplicates"]) == (2, 1)
-    assert [r["index"] for r in answer["rejected"]] == [3, 4, 5, 6, 7]
+    assert [r["index"] for r in answer["rejected"]] == [3, 4, 5, 6]
     assert "bearing" in str(answer["rejected"][1]["errors"])
     assert answer["rejected"][2]["errors"] == {"status": ["unknown status 'lost'"]}
-    assert answer["rejected"][3]["errors"] == {"uid": ["this uid belongs to another command"]}
     assert Command.objects.get(uid=good).status == "done"
     assert set(Command.objects.filter(reported=True).values_list("uid", flat=True)) == {
         good,
@@ -193,6 +204,21 @@ def test_the_report_keeps_the_good_entries_and_names_the_bad_ones(glider_boat, g
     }
     again = glider_boat.post(REPORT, {"commands": [wire(good), wire(repeated)]}, format="json")
     assert again.json() == {"accepted": 1, "duplicates": 1, "rejected": []}
+
+
+def test_another_vessels_uid_gets_the_answer_of_a_fresh_one(glider_boat, glider, vessel_a):
+    """Reporting boat A's uid once said "this uid belongs to another command"."""
+    other = command_enqueue(vessel=vessel_a, kind="hold", params={})
+    for extra in ({}, {"params": {"bearing": 999}}, {"status": "lost"}, {"finished_at": None}):
+        answers = [
+            glider_boat.post(REPORT, {"commands": [wire(uid, **extra)]}, format="json").json()
+            for uid in (other.uid, uuid.uuid4())
+        ]
+        assert answers[0] == answers[1]
+    assert answers[0]["rejected"] == [] and answers[0]["accepted"] == 1
+    other.refresh_from_db()
+    assert (other.vessel, other.status, other.reported) == (vessel_a, "queued", False)
+    assert Command.objects.filter(vessel=glider).count() == 2  # the two fresh ones accepted
 
 
 def test_the_report_needs_a_vessel_key_and_a_commands_list(anonymous, revoked_boat, glider_boat):
@@ -278,3 +304,43 @@ def test_a_known_command_cannot_move_on_with_an_implausible_time(glider):
         )
     assert raised.value.field == "finished_at"
     assert Command.objects.get(uid=uid).status == "queued"
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("created_at", "2026-11-25T06:00:00", "needs a UTC offset"),
+        ("finished_at", "2026-11-25T06:00:06", "needs a UTC offset"),
+        ("created_at", "2026-11-25T06:00:00Z\x00", "Null characters are not allowed."),
+    ],
+)
+def test_a_time_without_an_offset_or_with_a_nul_is_refused_as_telemetry_does(
+    glider_boat, glider, field, value, message
+):
+    """A naive time was taken as UTC here while telemetry refused it: one rule now."""
+    body = json.dumps({"commands": [wire(uuid.uuid4(), **{field: value}), wire(uuid.uuid4())]})
+    answer = glider_boat.post(REPORT, body, content_type="application/json").json()
+    assert answer["accepted"] == 1
+    (rejected,) = answer["rejected"]
+    assert rejected["index"] == 0 and message in rejected["errors"][field][0]
+    assert Command.objects.count() == 1
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"bearing": "23\x000"}, "bearing: Null characters are not allowed."),
+        ({"bearing\x00": 230}, "key 'bearing\\x00': Null characters"),
+        ({"bearing": 230, "x\ud800": "y"}, "key 'x\\ud800': Surrogate"),
+    ],
+)
+def test_params_the_database_cannot_store_are_rejected_by_index(
+    glider_boat, glider, params, message
+):
+    """The lone surrogate in a name was a 500: the catalog's error echoed it into the reply."""
+    body = json.dumps({"commands": [wire(uuid.uuid4(), params=params), wire(uuid.uuid4())]})
+    response = glider_boat.post(REPORT, body, content_type="application/json")
+    assert response.status_code == 200
+    answer = response.json()
+    assert answer["accepted"] == 1 and [r["index"] for r in answer["rejected"]] == [0]
+    assert answer["rejected"][0]["errors"]["params"][0].startswith(message)

@@ -36,6 +36,13 @@ def test_acks_and_fixes_are_queued_separately(outbox):
     assert outbox.count("fix") == 1 and outbox.count() == 3
 
 
+def test_an_ack_detail_goes_as_text_the_shore_takes(outbox):
+    """The shore refuses NUL and lone surrogates (a 400, after which the ack is dropped)."""
+    outbox.add_ack("u1", "failed", "autopilot: no\x00 \ud800fix")
+    (ack,) = outbox.peek("ack", 10)
+    assert ack.body["detail"] == "autopilot: no\ufffd \ufffdfix"
+
+
 def test_a_full_outbox_evicts_the_oldest_fixes_and_counts_them(tmp_path):
     box = Outbox(tmp_path / "o.sqlite3", max_fixes=10)
     box.add_ack("u1", "done")

@@ -8,10 +8,13 @@ import json
 import pytest
 
 from commands.services import command_enqueue
+from sms import language
+from sms.api.boat import PARSED_MAX_BYTES
 from sms.models import SmsMessage
 from sms.services import authorised_number_authorise, authorised_number_deauthorise
 from tests.conftest import boat_client
 from vessels.services import vessel_key_issue
+from vessels.text import json_size
 
 NUMBERS = "/api/v1/boat/numbers/"
 SMS = "/api/v1/boat/sms/"
@@ -168,3 +171,72 @@ def test_an_odd_entry_is_rejected_by_index_and_never_a_500(glider_boat, odd):
     body = answer.json()
     assert body["accepted"] + len(body["rejected"]) == 2
     assert body["accepted"] >= 1
+
+
+# --- what PostgreSQL cannot store, and the size of `parsed` (issue 16) ---
+
+
+@pytest.mark.parametrize(
+    ("parsed", "where"),
+    [
+        ([{"k": "a\x00b"}], "[0].k"),
+        ([{"k": "lone \ud800"}], "[0].k"),
+        ([{"kind": "command"}, {"params": {"deep": ["x", "y\x00"]}}], "[1].params.deep[1]"),
+        ([{"a\x00b": 1}], "key"),
+        ([{"k": {"\udfff": 1}}], "key"),
+    ],
+)
+def test_parsed_holding_nul_or_a_lone_surrogate_is_rejected_by_index_and_the_rest_stored(
+    glider, glider_boat, parsed, where
+):
+    """A 500 on PostgreSQL once, which also lost every entry after it, even on re-send."""
+    body = json.dumps([entry("a"), entry("bad", parsed=parsed), entry("c")])
+    for _ in range(2):  # the re-send: the last entry was never stored either
+        answer = glider_boat.post(SMS, body, content_type="application/json")
+        assert answer.status_code == 200
+        (rejected,) = answer.json()["rejected"]
+        assert rejected["index"] == 1 and list(rejected["errors"]) == ["parsed"]
+        assert where in rejected["errors"]["parsed"][0]
+    assert set(SmsMessage.objects.values_list("origin_id", flat=True)) == {"a", "c"}
+
+
+def test_parsed_over_its_size_limit_is_rejected_naming_the_limit(glider, glider_boat):
+    big = [{"text": "x" * 1000} for _ in range(PARSED_MAX_BYTES // 1000 + 1)]
+    body = glider_boat.post(SMS, [entry("big", parsed=big), entry("ok")], format="json").json()
+    assert body["accepted"] == 1
+    (rejected,) = body["rejected"]
+    assert rejected["index"] == 0
+    assert f"at most {PARSED_MAX_BYTES}" in rejected["errors"]["parsed"][0]
+
+
+def test_the_largest_parsed_the_glider_makes_is_taken(glider, glider_boat):
+    """The cap is above what the SMS language can produce: 1,600 characters of controls in
+    ten unknown commands, each echoed twice, escaped."""
+    text = ";".join(["#" + "\x01" * 158] * 10)[: language.MAX_TEXT]
+    parsed = [item.as_dict() for item in language.parse(text)]
+    assert json_size(parsed) > PARSED_MAX_BYTES // 2
+    body = glider_boat.post(SMS, [entry("worst", parsed=parsed)], format="json").json()
+    assert (body["accepted"], body["rejected"]) == (1, [])
+    assert SmsMessage.objects.get(origin_id="worst").parsed == parsed
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("created_at", "2026-11-25T06:00:00", "needs a UTC offset"),
+        ("received_at", "2026-11-25T06:00:00", "needs a UTC offset"),
+        ("created_at", "2026-11-25T06:00:00Z\x00", "Null characters"),
+        ("sent_at", "2026-11-25T06:00:00\x00+05:00", "Null characters"),
+    ],
+)
+def test_a_time_without_offset_or_with_a_nul_is_rejected_by_index(
+    glider, glider_boat, field, value, message
+):
+    odd = entry("odd", **{field: value})
+    if field == "sent_at":
+        odd.update(direction="out", status="sent", outcome="")
+    body = glider_boat.post(SMS, json.dumps([odd, entry("ok")]), content_type="application/json")
+    body = body.json()
+    assert body["accepted"] == 1
+    (rejected,) = body["rejected"]
+    assert rejected["index"] == 0 and message in rejected["errors"][field][0]

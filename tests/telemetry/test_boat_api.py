@@ -127,6 +127,9 @@ BAD_FIXES: list[tuple[dict[str, Any], dict[str, str]]] = [
     ({"time": ...}, {"time": "is required"}),
     ({"time": "2026-11-23T10:00:00"}, {"time": "needs a UTC offset, e.g. 2026-11-23T10:00:00Z"}),
     ({"time": "yesterday"}, {"time": "must be ISO 8601 (with offset) or Unix seconds"}),
+    # Python's ISO parser stops at a NUL: these were taken as 10:00Z and 10:00+05:00.
+    ({"time": "2026-11-23T10:00:00Z\x00"}, {"time": "Null characters are not allowed."}),
+    ({"time": "2026-11-23T10:00:00\x00+05:00"}, {"time": "Null characters are not allowed."}),
     ({"time": True}, {"time": "must be ISO 8601 (with offset) or Unix seconds"}),
     ({"time": 1e20}, {"time": "is out of range"}),
     ({"time": "2009-01-01T00:00:00Z"}, {"time": "is before 2018-01-01"}),

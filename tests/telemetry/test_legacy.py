@@ -13,6 +13,7 @@ from django.utils import timezone
 from rest_framework.test import APIClient
 
 from telemetry.models import Fix
+from telemetry.parsing import MAX_READING_NAME, MAX_READINGS
 from tests.support import DATA, LISTING_1, post_data, telem_ack, ticks
 from vessels.models import Vessel
 
@@ -183,6 +184,37 @@ def test_a_reading_name_the_database_cannot_store_costs_only_its_own_record(
     success, message = telem_ack(response)
     assert success == "false" and "accepted 1" in message and "record 1" in message
     assert vessel_a.fixes.count() == 1
+
+
+def test_a_record_with_more_readings_than_v1_takes_is_rejected_and_logged(
+    boat_a: APIClient, vessel_a: Vessel, caplog: pytest.LogCaptureFixture
+) -> None:
+    """v1's cap (MAX_READINGS, 64) holds here too: 3,000 readings were stored once."""
+    full = {**LISTING_1[1], **{f"r{i}": float(i) for i in range(MAX_READINGS - 2)}}
+    over = {**LISTING_1[0], **{f"r{i}": float(i) for i in range(3000)}}
+    response = post_data(boat_a, [over, full])
+    assert response.status_code == 200
+    success, message = telem_ack(response)
+    assert success == "false"
+    assert message == (
+        "accepted 1, duplicates 0, rejected 1;"
+        f" record 0: readings has 3002 values (at most {MAX_READINGS})"
+    )
+    assert len(vessel_a.fixes.get().readings) == MAX_READINGS
+    assert "data.cgi from spab" in caplog.text and "record 0: readings" in caplog.text
+
+
+def test_a_reading_name_over_the_limit_is_rejected_not_dropped(
+    boat_a: APIClient, vessel_a: Vessel
+) -> None:
+    name = "t" * (MAX_READING_NAME + 1)
+    response = post_data(boat_a, [{**LISTING_1[0], name: 1.0}, LISTING_1[1]])
+    success, message = telem_ack(response)
+    assert success == "false"
+    assert message.endswith(
+        f"record 0: {'t' * 20}… name is longer than {MAX_READING_NAME} characters"
+    )
+    assert vessel_a.fixes.get().recorded_at == dt.datetime(2018, 9, 10, 4, 11, 18, tzinfo=dt.UTC)
 
 
 @pytest.mark.parametrize(

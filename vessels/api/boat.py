@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from django.utils.dateparse import parse_datetime
+from rest_framework import serializers
 from rest_framework.negotiation import DefaultContentNegotiation
 from rest_framework.renderers import JSONRenderer
 from rest_framework.request import Request
@@ -19,6 +21,7 @@ from vessels.api.parsers import JSONParser
 from vessels.auth import LegacyKeyAuthentication, VesselKeyAuthentication
 from vessels.models import Vessel
 from vessels.permissions import IsBoat
+from vessels.text import unstorable
 
 
 class JsonOnly(DefaultContentNegotiation):
@@ -42,6 +45,29 @@ class BoatView(APIView):
 
     def vessel(self, request: Request) -> Vessel:
         return request.user.vessel
+
+
+class AwareDateTimeField(serializers.DateTimeField):
+    """A vessel's time: ISO 8601 with a UTC offset, as telemetry takes it.
+
+    DRF would read a naive time as the site's zone (UTC here), a guess about a vessel's
+    clock that telemetry refuses to make; and Python's ISO parser stops at a NUL, so
+    ``...T10:00:00Z\x00junk`` parsed as a time. Both are refused, saying why.
+    """
+
+    default_error_messages = {"naive": "needs a UTC offset, e.g. 2026-11-23T10:00:00Z"}
+
+    def to_internal_value(self, value: Any) -> Any:
+        if isinstance(value, str):
+            if problem := unstorable(value):
+                raise serializers.ValidationError(problem, code="invalid")
+            try:
+                parsed = parse_datetime(value)
+            except ValueError:
+                parsed = None  # out of range: DRF's own message below
+            if parsed is not None and parsed.tzinfo is None:
+                self.fail("naive")
+        return super().to_internal_value(value)
 
 
 def telem_ack(success: bool, message: str) -> list[dict[str, str]]:
