@@ -189,6 +189,7 @@ INSTALLED_APPS = [
 MIDDLEWARE = [
     "vessels.middleware.BoatApiSlimMiddleware",
     "fleet.middleware.RejectNulMiddleware",
+    "fleet.middleware.DatabaseUnavailableMiddleware",
     "django.middleware.security.SecurityMiddleware",
     # Serves the vendored front-end assets (Leaflet, Swagger UI) itself: no CDN, no internet.
     "whitenoise.middleware.WhiteNoiseMiddleware",

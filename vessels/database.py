@@ -14,6 +14,9 @@ import sqlite3
 import psycopg
 from django.db import InterfaceError, OperationalError
 
+# What a 503 for a database away for a moment asks the client to wait, in seconds.
+RETRY_AFTER_S = 5
+
 # SQLSTATE classes 08 (connection exception) and 57P (operator intervention: admin shutdown,
 # crash shutdown, cannot connect now), PostgreSQL Appendix A.
 _LOST_STATES = ("08", "57P")

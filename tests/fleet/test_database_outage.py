@@ -15,6 +15,7 @@ import psycopg
 import pytest
 import requests
 from django.db import DatabaseError, OperationalError, connection, transaction
+from django.test import Client
 
 from commands.api import boat as boat_views
 from telemetry import services
@@ -226,3 +227,27 @@ def test_backends_terminated_mid_ingest_are_never_a_500(
     assert set(statuses) <= {200, 503}, (statuses, losses)
     assert statuses[200] and statuses[503], statuses
     assert losses[None] >= 1, f"no loss without SQLSTATE in {n} requests: {losses}"
+
+
+@pytest.mark.django_db(transaction=True)
+def test_a_page_whose_database_goes_away_is_a_503_page_not_a_500(
+    live_server: Any, vessel_a: Vessel, operator_user: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The admin and the map pages are no DRF views: the middleware gives them the 503."""
+    from fleet import views
+
+    def lookup_dropping(slug: str) -> Any:
+        drop_own_connection()
+
+    login = Client()
+    login.force_login(operator_user)
+    http = requests.Session()
+    http.cookies["sessionid"] = login.cookies["sessionid"].value
+    page = f"{live_server.url}/fleet/vessels/{vessel_a.slug}/track/"
+    monkeypatch.setattr(views, "vessel_by_slug", lookup_dropping)
+    response = http.get(page, timeout=10)
+    assert response.status_code == 503
+    assert response.headers["Retry-After"] == "5"
+    assert "The database is unavailable for a moment" in response.text
+    monkeypatch.undo()
+    assert http.get(page, timeout=10).status_code == 200
