@@ -15,7 +15,7 @@ from rest_framework.views import exception_handler as drf_exception_handler
 from commands.errors import CatalogError, CommandError, CommandNotFound, TransitionError
 from fleet.error_views import too_large_detail
 from telemetry.errors import TelemetryError
-from vessels.database import database_unavailable
+from vessels.database import RETRY_AFTER_S, database_unavailable
 from vessels.errors import VesselsError
 
 logger = logging.getLogger(__name__)
@@ -39,7 +39,7 @@ class DatabaseUnavailable(exceptions.APIException):
     status_code = status.HTTP_503_SERVICE_UNAVAILABLE
     default_code = "database_unavailable"
     default_detail = "The database is unavailable for a moment; retry shortly."
-    retry_after_s = 5
+    retry_after_s = RETRY_AFTER_S
 
 
 def domain_to_api(exc: Exception) -> Exception:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import sqlite3
+import stat
+from pathlib import Path
 from typing import Any
 
 from django.conf import settings
@@ -92,4 +94,40 @@ def check_sqlite_version(app_configs: Any = None, **kwargs: Any) -> list[Error]:
             hint="Use a Python built against a newer SQLite, or set DATABASE_URL to PostgreSQL.",
             id="fleet.E006",
         )
+    ]
+
+
+# Group and others: any of read, write, enter.
+_NOT_OWNER = 0o077
+
+
+def private_data_paths() -> list[Path]:
+    """What only the service's user may touch: the data folder, the SQLite database (with its
+    -wal and -shm, which carry the same rows) and the generated secret key, where they exist."""
+    paths = [Path(settings.DATA_DIR), Path(settings.DATA_DIR) / "secret_key"]
+    for db in settings.DATABASES.values():
+        name = str(db.get("NAME") or "")
+        if db["ENGINE"] == "django.db.backends.sqlite3" and not name.startswith((":", "file:")):
+            paths += [Path(name), Path(f"{name}-wal"), Path(f"{name}-shm")]
+    return [path for path in paths if path.exists()]
+
+
+def loose_permissions(paths: list[Path]) -> list[tuple[Path, int]]:
+    """(path, mode) for each of ``paths`` that its group or others may read, write or enter."""
+    modes = [(path, stat.S_IMODE(path.stat().st_mode)) for path in paths]
+    return [(path, mode) for path, mode in modes if mode & _NOT_OWNER]
+
+
+@register(Tags.security)
+def check_data_permissions(app_configs: Any = None, **kwargs: Any) -> list[Warning]:
+    """The data folder was created 0700 and its files 0600, but an older or copied folder
+    keeps whatever mode it had: vessel key hashes, operators' password hashes and the
+    secret key that signs their sessions would be readable by every user of the machine."""
+    return [
+        Warning(
+            f"{path} is open to other users (mode {mode:04o}).",
+            hint=f"chmod {700 if path.is_dir() else 600} {path}",
+            id="fleet.W003",
+        )
+        for path, mode in loose_permissions(private_data_paths())
     ]

@@ -11,6 +11,8 @@ from django.core.exceptions import RequestDataTooBig
 from django.http import HttpRequest, HttpResponse, JsonResponse
 from django.views import defaults
 
+from vessels.database import RETRY_AFTER_S
+
 API_PREFIX = "/api/"
 LEGACY_PREFIX = "/spab/"
 
@@ -50,3 +52,13 @@ def page_not_found(request: HttpRequest, exception: Exception) -> HttpResponse:
 def server_error(request: HttpRequest) -> HttpResponse:
     answer = _json(request, 500, "server_error", "Something went wrong on the server.")
     return answer or defaults.server_error(request)
+
+
+def database_unavailable(request: HttpRequest) -> HttpResponse:
+    """The database went away mid-request: a 503 the same request may retry after a moment."""
+    detail = "The database is unavailable for a moment; retry shortly."
+    answer = _json(request, 503, "database_unavailable", detail) or HttpResponse(
+        f"<h1>Service unavailable</h1><p>{detail}</p>", status=503
+    )
+    answer["Retry-After"] = str(RETRY_AFTER_S)
+    return answer

@@ -6,6 +6,7 @@ Production safety is enforced by the system checks in fleet/checks.py.
 
 from __future__ import annotations
 
+import ipaddress
 import os
 import re
 import secrets
@@ -188,6 +189,7 @@ INSTALLED_APPS = [
 MIDDLEWARE = [
     "vessels.middleware.BoatApiSlimMiddleware",
     "fleet.middleware.RejectNulMiddleware",
+    "fleet.middleware.DatabaseUnavailableMiddleware",
     "django.middleware.security.SecurityMiddleware",
     # Serves the vendored front-end assets (Leaflet, Swagger UI) itself: no CDN, no internet.
     "whitenoise.middleware.WhiteNoiseMiddleware",
@@ -268,8 +270,26 @@ SECURE_HSTS_SECONDS = env_int("SECURE_HSTS_SECONDS", 31536000 if PRODUCTION else
 SECURE_CONTENT_TYPE_NOSNIFF = True
 SESSION_COOKIE_HTTPONLY = True
 X_FRAME_OPTIONS = "DENY"
-if env_bool("BEHIND_TLS_PROXY", False):
+BEHIND_TLS_PROXY = env_bool("BEHIND_TLS_PROXY", False)
+if BEHIND_TLS_PROXY:
     SECURE_PROXY_SSL_HEADER = ("HTTP_X_FORWARDED_PROTO", "https")
+
+
+def env_networks(name: str, default: list[str]) -> list[str]:
+    """Comma-separated IP addresses or networks (`10.0.0.0/8`); a typo stops the start."""
+    values = env_list(name, default)
+    for value in values:
+        try:
+            ipaddress.ip_network(value, strict=False)
+        except ValueError:
+            raise ValueError(f"{name}: {value!r} is not an IP address or network") from None
+    return values
+
+
+# The proxies whose X-Forwarded-For is believed (operators/clients.py): a request from any
+# other address is taken at its REMOTE_ADDR, whatever headers it carries. The TLS proxy
+# usually runs on this machine.
+TRUSTED_PROXIES = env_networks("TRUSTED_PROXIES", ["127.0.0.1", "::1"] if BEHIND_TLS_PROXY else [])
 
 REST_FRAMEWORK = {
     "DEFAULT_AUTHENTICATION_CLASSES": [
@@ -387,7 +407,16 @@ LOGGING = {
     "version": 1,
     "disable_existing_loggers": False,
     "formatters": {"plain": {"format": "%(asctime)s %(levelname)s %(name)s: %(message)s"}},
-    "handlers": {"console": {"class": "logging.StreamHandler", "formatter": "plain"}},
+    # A legacy boat's `?key=` (and a refused v1 one) must not reach the logs (fleet/logs.py).
+    "filters": {"hide_keys": {"()": "fleet.logs.HideKeys"}},
+    "handlers": {
+        "console": {
+            "class": "logging.StreamHandler",
+            "formatter": "plain",
+            "filters": ["hide_keys"],
+        }
+    },
     "root": {"handlers": ["console"], "level": os.environ.get("LOG_LEVEL", "INFO")},
-    "loggers": {"django.server": {"level": "WARNING"}},
+    # runserver's request lines (with their query strings) through the same filtered handler.
+    "loggers": {"django.server": {"handlers": ["console"], "level": "WARNING", "propagate": False}},
 }

@@ -18,17 +18,8 @@ from django.conf import settings
 from django.contrib.admin.forms import AdminAuthenticationForm
 from django.core.cache import cache
 from django.core.exceptions import ValidationError
-from django.http import HttpRequest
 
-
-def client_address(request: HttpRequest) -> str:
-    """REMOTE_ADDR, or behind the TLS proxy (BEHIND_TLS_PROXY=1) the address that proxy
-    appended last to X-Forwarded-For: earlier entries come from the client and can be forged."""
-    if getattr(settings, "SECURE_PROXY_SSL_HEADER", None):
-        forwarded = request.META.get("HTTP_X_FORWARDED_FOR", "")
-        if forwarded.strip():
-            return forwarded.split(",")[-1].strip()
-    return request.META.get("REMOTE_ADDR", "")
+from operators.clients import client_address
 
 
 def _key(username: str, address: str) -> str:

@@ -412,3 +412,73 @@ def test_throttle_rates_come_from_the_environment(tmp_path: Path) -> None:
     )
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "{'boat': '5/s', 'operator': None}"
+
+
+# --- fleet.W003: the data folder and its secrets are the service user's alone ---
+
+
+def _private_data(tmp_path: Path) -> tuple[Path, Path, Path]:
+    data = tmp_path / "data"
+    data.mkdir(mode=0o700)
+    db, secret = data / "shoreside.sqlite3", data / "secret_key"
+    for path in (db, secret):
+        path.touch(mode=0o600)
+    return data, db, secret
+
+
+def _w003(monkeypatch: pytest.MonkeyPatch, data: Path, db: Path) -> list[str]:
+    import fleet.checks
+
+    sqlite = {"default": {"ENGINE": "django.db.backends.sqlite3", "NAME": db}}
+    monkeypatch.setattr(fleet.checks, "settings", SimpleNamespace(DATA_DIR=data, DATABASES=sqlite))
+    problems = fleet.checks.check_data_permissions()
+    assert {p.id for p in problems} <= {"fleet.W003"}
+    return [p.msg for p in problems]
+
+
+def test_w003_is_quiet_for_a_private_data_folder(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    data, db, _ = _private_data(tmp_path)
+    assert _w003(monkeypatch, data, db) == []
+
+
+@pytest.mark.parametrize(
+    ("name", "mode"),
+    [("", 0o755), ("", 0o750), ("", 0o701), ("shoreside.sqlite3", 0o644),
+     ("shoreside.sqlite3", 0o620), ("secret_key", 0o640), ("shoreside.sqlite3-wal", 0o604)],
+)  # fmt: skip
+def test_w003_names_what_others_may_read_or_write(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, name: str, mode: int
+) -> None:
+    data, db, _ = _private_data(tmp_path)
+    path = data / name
+    path.touch(mode=0o600, exist_ok=True)
+    path.chmod(mode)
+    assert _w003(monkeypatch, data, db) == [f"{path} is open to other users (mode {mode:04o})."]
+
+
+def test_w003_skips_what_does_not_exist(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    data, db, secret = _private_data(tmp_path)
+    secret.unlink()
+    assert _w003(monkeypatch, data, data / "elsewhere.sqlite3") == []
+
+
+def test_manage_py_check_warns_about_an_open_data_folder(tmp_path: Path) -> None:
+    data = tmp_path / "data"
+    data.mkdir()
+    data.chmod(0o755)  # an older folder, made before Shoreside created it 0700
+    env = {k: v for k, v in os.environ.items() if k not in {"DATABASE_URL", "SECRET_KEY"}}
+    env["SHORESIDE_DATA_DIR"] = str(data)
+
+    def check() -> str:
+        done = subprocess.run([sys.executable, "manage.py", "check"], cwd=ROOT, env=env,
+                              capture_output=True, text=True, timeout=120)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        return done.stdout + done.stderr
+
+    output = check()
+    assert f"(fleet.W003) {data} is open to other users (mode 0755)." in output
+    assert f"HINT: chmod 700 {data}" in output
+    data.chmod(0o700)
+    assert "fleet.W003" not in check()

@@ -75,14 +75,39 @@ def test_a_successful_login_clears_the_count(alice: User) -> None:
     assert logged_in(login("alice", "pw-alice"))
 
 
-def test_behind_the_proxy_the_address_it_appended_counts(alice: User, settings: Any) -> None:
+@pytest.fixture
+def behind_proxy(settings: Any) -> None:
+    """BEHIND_TLS_PROXY=1 with its default TRUSTED_PROXIES: the proxy on this machine."""
     settings.SECURE_PROXY_SSL_HEADER = ("HTTP_X_FORWARDED_PROTO", "https")
+    settings.TRUSTED_PROXIES = ["127.0.0.1", "::1"]
+
+
+def test_behind_the_proxy_the_address_it_appended_counts(alice: User, behind_proxy: None) -> None:
     for n in range(5):  # a forged first entry changes nothing
         login("alice", "guess", "127.0.0.1", HTTP_X_FORWARDED_FOR=f"10.0.0.{n}, {ATTACKER}")
     assert refused_for_failures(
         login("alice", "pw-alice", "127.0.0.1", HTTP_X_FORWARDED_FOR=f"9.9.9.9, {ATTACKER}")
     )
     assert logged_in(login("alice", "pw-alice", "127.0.0.1", HTTP_X_FORWARDED_FOR=OFFICE))
+
+
+def test_a_forwarded_header_from_anyone_but_the_proxy_is_ignored(
+    alice: User, behind_proxy: None
+) -> None:
+    """Straight to gunicorn, past the proxy: a new X-Forwarded-For per attempt would give
+    each guess an address of its own and no lockout ever."""
+    for n in range(5):
+        login("alice", "guess", ATTACKER, HTTP_X_FORWARDED_FOR=f"10.0.0.{n}")
+    assert refused_for_failures(login("alice", "pw-alice", ATTACKER, HTTP_X_FORWARDED_FOR=OFFICE))
+    # The office, through the proxy, is another address and still gets in.
+    assert logged_in(login("alice", "pw-alice", "127.0.0.1", HTTP_X_FORWARDED_FOR=OFFICE))
+
+
+def test_without_trusted_proxies_the_header_counts_for_nothing(alice: User, settings: Any) -> None:
+    settings.TRUSTED_PROXIES = []
+    for n in range(5):
+        login("alice", "guess", "127.0.0.1", HTTP_X_FORWARDED_FOR=f"10.0.0.{n}")
+    assert refused_for_failures(login("alice", "pw-alice", "127.0.0.1"))
 
 
 @pytest.fixture
