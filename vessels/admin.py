@@ -21,6 +21,7 @@ from django.utils import timezone
 from django.utils.html import format_html, format_html_join
 
 from vessels import missionfiles
+from vessels.display import fmt_ddm, fmt_position
 from vessels.errors import MissionFileError
 from vessels.missions import (
     DEFAULT_CRUISE_SPEED_MPS,
@@ -150,7 +151,12 @@ class VesselAdmin(admin.ModelAdmin):
         fix = vessel.last_fix or {}
         if "lat" not in fix:
             return "–"
-        return f"{fix['lat']:.5f}, {fix['lon']:.5f}"
+        # Decimal degrees; the chart form (degrees, decimal minutes) on hover.
+        return format_html(
+            '<span title="{}">{}</span>',
+            fmt_ddm(fix["lat"], fix["lon"]),
+            fmt_position(fix["lat"], fix["lon"]),
+        )
 
     @admin.display(description="battery (V)")
     def battery(self, vessel: Vessel) -> str:

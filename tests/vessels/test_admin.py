@@ -24,7 +24,8 @@ def test_it_lists_vessels_with_status_position_and_battery(
 ) -> None:
     page = admin_ui.get("/admin/vessels/vessel/").content.decode()
     assert "SPAB 2" in page and "never seen" in page
-    assert "-31.95050, 115.86050" in page
+    # Decimal degrees, the chart form on hover (one position format, vessels.display).
+    assert '<span title="31°57.030′S 115°51.630′E">-31.95050°, 115.86050°</span>' in page
     assert "12.34" in page
 
 

@@ -178,7 +178,7 @@
   };
 
   FleetMap.prototype.ageSpan = function (since, suffix) {
-    return el("span", { class: "age", "data-since": since, "data-suffix": suffix || "" });
+    return el("span", { class: "age", "data-since": since, "data-suffix": suffix || "", title: S.fmtTime(since) });
   };
 
   FleetMap.prototype.updateAges = function () {
@@ -251,14 +251,14 @@
     box.appendChild(el("h3", { text: "Last fix" }));
     var rows = [
       ["Time", el("span", {}, [S.fmtTime(fix.time) + " (", this.ageSpan(fix.time, " ago"), ")"])],
-      ["Position", S.fmtDDM(fix.lat, fix.lon)],
-      ["Speed", fix.speed_mps === null || fix.speed_mps === undefined ? "–" : S.fmtValue(fix.speed_mps, "m/s") + " (" + (fix.speed_mps * 1.943844).toFixed(1) + " kn)"],
+      ["Position", S.positionEl(fix.lat, fix.lon)],
+      ["Speed", S.fmtSpeed(fix.speed_mps)],
       ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
       [this.label("battery_v"), S.fmtValue(fix.battery_v, this.unit("battery_v"))],
     ];
     var readings = fix.readings || {};
-    Object.keys(readings).sort().forEach(function (key) {
-      rows.push([self.label(key), S.fmtValue(readings[key], self.unit(key))]);
+    S.readingKeys(readings, this.cfg.channels).forEach(function (key) {
+      rows.push([self.label(key), S.fmtReading(key, readings[key], self.cfg.channels)]);
     });
     var table = el("table", { class: "readings" });
     rows.forEach(function (r) {
@@ -375,7 +375,7 @@
     }
     L.circleMarker(latlng, { radius: 7, color: "#1565c0", weight: 2, fillOpacity: 0.3, interactive: false }).addTo(this.overlay);
     if (this.pick.input === "point") {
-      var where = S.fmtDDM(latlng.lat, latlng.lng);
+      var where = S.fmtPosition(latlng.lat, latlng.lng) + " (" + S.fmtDDM(latlng.lat, latlng.lng) + ")";
       var text = "Move " + v.name + " to " + where + "?";
       if (fix) {
         var d = S.geo.distance(fix.lat, fix.lon, latlng.lat, latlng.lng);
