@@ -172,9 +172,9 @@ def test_a_mission_planner_waypoints_file_is_imported_and_shown_on_the_map(
     wait_for(browser, lambda b: len(markers(b)) == 3)
     js(browser, "document.querySelector('fieldset.planner').scrollIntoView()")
     assert planner_rows(browser) == [
-        "-31.98000, 115.82000",
-        "-31.98200, 115.82300",
-        "-31.97850, 115.82400",
+        "-31.98000°, 115.82000°",
+        "-31.98200°, 115.82300°",
+        "-31.97850°, 115.82400°",
     ]
     assert "Imported" in browser.page_source
     shot(browser, "import-2-on-the-map")

@@ -242,7 +242,7 @@
       var holder = el("div", { class: "plot", "data-key": key }, [el("p", { class: "plot-title", text: title })]);
       box.appendChild(holder);
       var states = known && known.states;
-      if (states) { holder.setAttribute("data-states", "1"); }
+      holder.setAttribute("data-plot", states ? "steps" : "line");
       var opts = {
         width: box.clientWidth || 800,
         height: PLOT_HEIGHT,
@@ -334,8 +334,8 @@
     }
     return [
       { label: "time (UTC)", value: function (u, v) { return v === null || v === undefined ? "–" : S.fmtTime(v); } },
-      { label: "from", stroke: colour, width: 2, paths: steps, value: named, gaps: gaps },
-      { label: "to", stroke: colour, width: 2, paths: steps, value: named, gaps: gaps },
+      { label: "min", stroke: colour, width: 2, paths: steps, value: named, gaps: gaps },
+      { label: "max", stroke: colour, width: 2, paths: steps, value: named, gaps: gaps },
     ];
   }
 
