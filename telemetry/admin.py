@@ -87,6 +87,19 @@ def channel_labels() -> dict[str, dict[str, Any]]:
     return labels
 
 
+def readings_html(fix: Fix, labels: dict[str, dict[str, Any]]) -> SafeString:
+    """A fix's battery and readings on one line: ``Mode HOLD · armed · Battery 12.4 V · …``."""
+    values = dict(fix.readings or {})
+    if fix.battery_v is not None:
+        values["battery_v"] = fix.battery_v
+    parts = fmt_readings(values, labels)
+    if not parts:
+        return format_html("{}", "–")
+    # One unbreakable piece per reading, the dot kept with the one before: a narrow window
+    # wraps between readings, never between a label and its value nor before a dot.
+    return format_html_join("\u00a0· ", '<span class="nowrap">{}</span>', ((p,) for p in parts))
+
+
 class FixChangeList(ChangeList):
     """Reads the channel labels once for the page and hands them to its rows."""
 
@@ -159,16 +172,7 @@ class FixAdmin(admin.ModelAdmin):
 
     @admin.display(description="readings")
     def readings_line(self, fix: Fix) -> SafeString:
-        labels = getattr(fix, "channel_labels", None) or channel_labels()
-        values = dict(fix.readings or {})
-        if fix.battery_v is not None:
-            values["battery_v"] = fix.battery_v
-        parts = fmt_readings(values, labels)
-        if not parts:
-            return format_html("{}", "–")
-        # One unbreakable piece per reading: a narrow window wraps between readings, never
-        # between a label and its value.
-        return format_html_join("\u00a0· ", '<span class="nowrap">{}</span>', ((p,) for p in parts))
+        return readings_html(fix, getattr(fix, "channel_labels", None) or channel_labels())
 
     # Fixes are the vessel's record of what happened: read-only, never typed in.
     def has_add_permission(self, request: HttpRequest) -> bool:

@@ -66,10 +66,9 @@ def test_the_fix_list_reads_seconds_positions_speeds_and_compact_readings(
         in page
     )
     assert "1.5 m/s (2.9 kn)" in page
-    line = (
-        '<span class="nowrap">Mode HOLD</span> · <span class="nowrap">disarmed</span> · '
-        '<span class="nowrap">Battery 12.6 V</span> · <span class="nowrap">Humidity 41 %</span> · '
-        '<span class="nowrap">raw_x 3</span>'
+    line = "\u00a0· ".join(
+        f'<span class="nowrap">{part}</span>'
+        for part in ("Mode HOLD", "disarmed", "Battery 12.6 V", "Humidity 41 %", "raw_x 3")
     )
     assert line in page
     assert "Mode AUTO" in page
