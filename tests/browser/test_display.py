@@ -11,6 +11,8 @@ import pytest
 from django.utils import timezone
 from selenium.webdriver.common.by import By
 
+from commands.models import Command
+from commands.services import command_enqueue
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from tests.browser.support import js, log_in, shot, wait_for
@@ -80,6 +82,7 @@ def test_the_fleet_map_panel_names_the_mode_and_the_armed_state(
             )
         ],
     )
+    command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -32.03, "lon": 115.33})
     log_in(browser, live_server, operator_user)
     wait_for(
         browser, lambda b: js(b, "return !!(window.shoresideFleet && window.shoresideFleet.fitted)")
@@ -102,6 +105,18 @@ def test_the_fleet_map_panel_names_the_mode_and_the_armed_state(
     # The mode and armed rows come first among the readings, before the sensors.
     keys = list(rows)
     assert keys.index("Mode") < keys.index("Armed") < keys.index("mission_item")
+    # The marker's age and the command's age tell their time on hover; a target reads as a fix.
+    fix_time = fmt_time(vessel_a.fixes.get().recorded_at)
+    age = browser.find_element(
+        By.CSS_SELECTOR, '#fleet-map .vessel-icon[data-slug="spab"] .vessel-age'
+    )
+    assert age.get_attribute("title") == "last fix " + fix_time
+    command = wait_for(
+        browser, lambda b: b.find_element(By.CSS_SELECTOR, "#fleet-panel .command-list li")
+    )
+    assert "-32.03000°, 115.33000°" in command.text
+    created = command.find_element(By.CSS_SELECTOR, ".age").get_attribute("title")
+    assert created == fmt_time(Command.objects.get().created_at)
     shot(browser, "display-1-fleet-panel")
 
 

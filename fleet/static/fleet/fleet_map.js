@@ -165,7 +165,9 @@
       if (!node) { return; }
       var html = self.markerHtml(v, st);
       if (node.shoresideHtml !== html) { node.innerHTML = html; node.shoresideHtml = html; }
-      node.querySelector(".vessel-age").textContent = st.fixAge === null ? "" : S.fmtDuration(st.fixAge);
+      var age = node.querySelector(".vessel-age");
+      age.textContent = st.fixAge === null ? "" : S.fmtDuration(st.fixAge);
+      age.title = v.last_fix ? "last fix " + S.fmtTime(v.last_fix.time) : "";
       node.setAttribute("data-slug", slug);
       node.setAttribute("data-status", st.status);
       L.DomUtil[slug === self.selected ? "addClass" : "removeClass"](node, "selected");
@@ -522,6 +524,7 @@
   function summary(params) {
     if (!params) { return ""; }
     if (params.items) { return params.items.length + " items"; }
+    if (typeof params.lat === "number" && typeof params.lon === "number") { return S.fmtPosition(params.lat, params.lon); }
     return Object.keys(params).map(function (k) {
       var v = params[k];
       return k + " " + (typeof v === "number" ? +v.toFixed(5) : v);
