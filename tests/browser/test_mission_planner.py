@@ -16,6 +16,7 @@ from telemetry.services import fix_ingest
 from tests.browser.support import js, log_in, shot, wait_for
 from tests.conftest import make_user
 from vessels import geo
+from vessels.display import fmt_position
 from vessels.missions import legs
 from vessels.models import Mission, Vessel
 from vessels.services import mission_save, mission_save_items, vessel_create
@@ -94,7 +95,7 @@ def test_a_three_point_mission_is_clicked_onto_the_map_dragged_saved_and_reloade
     browser.find_element(By.NAME, "_continue").click()
     wait_for(browser, lambda b: "/change/" in b.current_url)
     mission = Mission.objects.get(name="Matilda Bay survey")
-    saved = [(i.seq, f"{i.lat:.5f}, {i.lon:.5f}") for i in mission.items.order_by("seq")]
+    saved = [(i.seq, fmt_position(i.lat, i.lon)) for i in mission.items.order_by("seq")]
     assert saved == [(1, after[0]), (2, after[1]), (3, after[2])]
     assert mission.vessel == vessel_a
 
@@ -143,7 +144,7 @@ def test_deleting_and_reordering_in_the_list_keeps_rows_and_map_in_step(
     browser.find_element(By.NAME, "_continue").click()
     wait_for(browser, lambda b: "/change/" in b.current_url)
     items = Mission.objects.get(name="Reorder").items.order_by("seq")
-    assert [f"{i.lat:.5f}, {i.lon:.5f}" for i in items] == [second, first]
+    assert [fmt_position(i.lat, i.lon) for i in items] == [second, first]
 
 
 WAYPOINTS = """QGC WPL 110
