@@ -18,7 +18,15 @@ from django.utils.safestring import SafeString
 
 from telemetry.models import Fix, SensorChannel
 from telemetry.services import fixes_delete, sensor_channel_save
-from vessels.display import BATTERY, fmt_ddm, fmt_position, fmt_readings, fmt_speed, fmt_time
+from vessels.display import (
+    BATTERY,
+    fmt_ddm,
+    fmt_heading,
+    fmt_position,
+    fmt_readings,
+    fmt_speed,
+    fmt_time,
+)
 from vessels.models import Vessel
 
 # Counting past this is never worth a full scan: the admin shows "10000+" pages' worth.
@@ -164,7 +172,7 @@ class FixAdmin(admin.ModelAdmin):
 
     @admin.display(description="heading")
     def heading(self, fix: Fix) -> str:
-        return "–" if fix.heading_deg is None else f"{round(fix.heading_deg) % 360:03d}°"
+        return fmt_heading(fix.heading_deg)
 
     @admin.display(description="speed")
     def speed(self, fix: Fix) -> SafeString:

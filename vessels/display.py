@@ -83,6 +83,13 @@ def fmt_speed(mps: float | None) -> str:
     return f"{fixed(mps, 1)} m/s ({fixed(mps * KNOTS_PER_MPS, 1)} kn)"
 
 
+def fmt_heading(degrees: float | None) -> str:
+    """Three digits, as a compass course is said: ``090°``."""
+    if degrees is None:
+        return NONE
+    return f"{math.floor(degrees + 0.5) % 360:03d}°"
+
+
 def fmt_number(value: Any) -> str:
     """A reading's number: at most 2 decimals (1 from 100 up), no trailing zeros: 12.4, 41."""
     if isinstance(value, bool) or not isinstance(value, int | float):

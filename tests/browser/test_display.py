@@ -18,6 +18,7 @@ from telemetry.services import fix_ingest, sensor_channel_save
 from tests.browser.support import js, log_in, shot, wait_for
 from vessels.display import (
     fmt_ddm,
+    fmt_heading,
     fmt_number,
     fmt_position,
     fmt_speed,
@@ -43,6 +44,7 @@ def test_the_pages_format_as_the_server_does(browser, live_server, operator_user
         rng.uniform(-1000, 1000) for _ in range(100)
     ]
     base = dt.datetime(2026, 11, 25, 14, 3, 27, tzinfo=dt.UTC)
+    headings = [0.0, 0.5, 89.5, 90.0, 359.4, 359.5] + [rng.uniform(0, 360) for _ in range(50)]
     times = [base + dt.timedelta(seconds=rng.randrange(10**8)) for _ in range(50)]
     got = js(
         browser,
@@ -50,17 +52,19 @@ def test_the_pages_format_as_the_server_does(browser, live_server, operator_user
         "return [a[0].map(function (p) { return S.fmtPosition(p[0], p[1]); }),"
         " a[0].map(function (p) { return S.fmtDDM(p[0], p[1]); }),"
         " a[1].map(S.fmtSpeed), a[2].map(S.fmtNumber),"
-        " a[3].map(function (t) { return S.fmtTime(t); })]",
+        " a[3].map(function (t) { return S.fmtTime(t); }), a[4].map(S.fmtHeading)]",
         positions,
         speeds,
         numbers,
         [t.timestamp() for t in times],
+        headings,
     )
     assert got[0] == [fmt_position(*p) for p in positions]
     assert got[1] == [fmt_ddm(*p) for p in positions]
     assert got[2] == [fmt_speed(s) for s in speeds]
     assert got[3] == [fmt_number(n) for n in numbers]
     assert got[4] == [fmt_time(t) for t in times]
+    assert got[5] == [fmt_heading(h) for h in headings]
     # The fleet map's config carries the state channels as the server names them.
     channels = js(browser, "return window.Shoreside.json('fleet-map-config').channels")
     for key, state in state_channels_config().items():

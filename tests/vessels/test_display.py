@@ -11,6 +11,7 @@ from commands import catalog
 from vessels.display import (
     STATE_CHANNELS,
     fmt_ddm,
+    fmt_heading,
     fmt_number,
     fmt_position,
     fmt_reading,
@@ -55,6 +56,12 @@ def test_a_speed_carries_metres_per_second_and_knots() -> None:
     # Ties round away from zero, as the page's toFixed does (Python's format would say 0.2).
     assert fmt_speed(0.25) == "0.3 m/s (0.5 kn)"
     assert fmt_speed(None) == "–"
+
+
+def test_a_heading_reads_as_three_digits() -> None:
+    assert [fmt_heading(h) for h in (0.0, 5.2, 90.0, 359.4, 359.5, None)] == [
+        "000°", "005°", "090°", "359°", "000°", "–"
+    ]  # fmt: skip
 
 
 def test_numbers_are_short() -> None:

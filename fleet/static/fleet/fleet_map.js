@@ -255,7 +255,7 @@
       ["Time", el("span", {}, [S.fmtTime(fix.time) + " (", this.ageSpan(fix.time, " ago"), ")"])],
       ["Position", S.positionEl(fix.lat, fix.lon)],
       ["Speed", S.fmtSpeed(fix.speed_mps)],
-      ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
+      ["Heading", S.fmtHeading(fix.heading_deg)],
       [this.label("battery_v"), S.fmtValue(fix.battery_v, this.unit("battery_v"))],
     ];
     var readings = fix.readings || {};

@@ -167,7 +167,7 @@
       ["Time", S.fmtTime(fix.time)],
       ["Position", S.positionEl(fix.lat, fix.lon)],
       ["Speed", S.fmtSpeed(fix.speed_mps)],
-      ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
+      ["Heading", S.fmtHeading(fix.heading_deg)],
       [label("battery_v"), S.fmtReading("battery_v", fix.battery_v, channels)],
     ];
     var readings = fix.readings || {};

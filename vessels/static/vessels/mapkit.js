@@ -87,6 +87,11 @@
     if (mps === null || mps === undefined) { return "–"; }
     return mps.toFixed(1) + " m/s (" + (mps * KNOTS_PER_MPS).toFixed(1) + " kn)";
   };
+  // Three digits, as a compass course is said: 090°.
+  S.fmtHeading = function (deg) {
+    if (deg === null || deg === undefined) { return "–"; }
+    return ("00" + (Math.round(deg) % 360)).slice(-3) + "°";
+  };
   S.fmtNumber = function (v) {
     if (typeof v !== "number") { return String(v); }
     if (Number.isInteger(v)) { return String(v); }
