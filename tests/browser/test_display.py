@@ -205,6 +205,7 @@ def test_the_fix_list_fits_a_1400_px_window_with_seconds_and_compact_readings(
             ],
         )
     log_in(browser, live_server, operator_user)
+    before = browser.get_window_size()
     browser.set_window_size(1400, 900)
     try:
         for vessel in (vessel_a, vessel_b):
@@ -237,4 +238,4 @@ def test_the_fix_list_fits_a_1400_px_window_with_seconds_and_compact_readings(
         )
         assert len(heights) == 30 and max(heights) < 40
     finally:
-        browser.set_window_size(1280, 900)
+        browser.set_window_size(before["width"], before["height"])  # the session's browser

@@ -138,7 +138,8 @@
       .bindTooltip("start " + S.fmtTime(first.t)).addTo(this.trackLayer);
     L.circleMarker([last.lat, last.lon], { radius: 6, color: "#c62828", fillOpacity: 0.9 })
       .bindTooltip("end " + S.fmtTime(last.t)).addTo(this.trackLayer);
-    this.map.fitBounds(line.getBounds().pad(0.1), { maxZoom: 16 });
+    // No zoom animation: a new range is drawn at once, and a click lands where it shows.
+    this.map.fitBounds(line.getBounds().pad(0.1), { maxZoom: 16, animate: false });
   };
 
   // The track's vertex nearest the click (on screen), then the server's fix nearest its time.
