@@ -267,7 +267,7 @@ def test_send_refuses_an_unsaved_deletion_then_sends_exactly_what_the_screen_sho
     wait_for(browser, lambda b: "queued as command" in b.page_source)
     shot(browser, "send-2-queued")
     queued = Command.objects.get().params["items"]
-    assert [f"{i['lat']:.5f}, {i['lon']:.5f}" for i in queued] == on_screen
+    assert [fmt_position(i["lat"], i["lon"]) for i in queued] == on_screen
 
 
 def test_an_impossible_row_and_an_over_long_leg_are_marked_live(
