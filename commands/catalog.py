@@ -14,7 +14,7 @@ from typing import Any
 
 from commands.errors import CatalogError
 from vessels.geo import distance_m
-from vessels.kinds import MAVLINK, WAVE_GLIDER
+from vessels.kinds import MAVLINK, ROVER_MODES, WAVE_GLIDER
 from vessels.missions import (
     ENDS,
     HOLD_MAX_S,
@@ -25,24 +25,6 @@ from vessels.missions import (
     SPEED_MIN_MPS,
     format_distance,
 )
-
-# ArduPilot Rover flight modes (ArduPilot Rover/mode.h, `enum Number`); INITIALISING is not
-# a mode an operator can ask for.
-ROVER_MODES: dict[str, int] = {
-    "MANUAL": 0,
-    "ACRO": 1,
-    "STEERING": 3,
-    "HOLD": 4,
-    "LOITER": 5,
-    "FOLLOW": 6,
-    "SIMPLE": 7,
-    "DOCK": 8,
-    "CIRCLE": 9,
-    "AUTO": 10,
-    "RTL": 11,
-    "SMART_RTL": 12,
-    "GUIDED": 15,
-}
 
 # Wave Glider waypoint table indices (thesis Table 3: "at the specified index (1-254)").
 WG_INDEX_MIN, WG_INDEX_MAX = 1, 254

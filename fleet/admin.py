@@ -22,9 +22,11 @@ from commands.errors import CommandError
 from commands.models import Command, Source
 from commands.services import mission_problems, mission_send
 from sms.models import SmsMessage
+from telemetry.admin import channel_labels, readings_html
 from telemetry.models import Fix
 from vessels import missions
 from vessels.admin import MissionAdmin, VesselAdmin
+from vessels.display import fmt_ddm, fmt_position, fmt_speed, fmt_time
 from vessels.models import Mission, Vessel
 from vessels.services import mission_review
 
@@ -41,23 +43,25 @@ class FleetVesselAdmin(VesselAdmin):
     @admin.display(description="recent fixes")
     def recent_fixes(self, vessel: Vessel) -> str:
         fixes = Fix.objects.filter(vessel=vessel).order_by("-recorded_at")[:RECENT_ROWS]
+        labels = channel_labels()
         rows = format_html_join(
             "",
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            '<tr><td class="nowrap">{}</td><td class="nowrap" title="{}">{}</td>'
+            '<td class="nowrap">{}</td><td>{}</td></tr>',
             (  # formatted here: format_html escapes its arguments to strings first
                 (
-                    f.recorded_at.strftime("%Y-%m-%d %H:%M:%S"),
-                    f"{f.lat:.5f}",
-                    f"{f.lon:.5f}",
-                    "–" if f.speed_mps is None else f"{f.speed_mps:.1f}",
-                    "–" if f.battery_v is None else f"{f.battery_v:.2f}",
+                    fmt_time(f.recorded_at),
+                    fmt_ddm(f.lat, f.lon),
+                    fmt_position(f.lat, f.lon),
+                    fmt_speed(f.speed_mps),
+                    readings_html(f, labels),
                 )
                 for f in fixes
             ),
         )
         return format_html(
-            "<table><tr><th>time (UTC)</th><th>lat</th><th>lon</th><th>speed m/s</th>"
-            "<th>battery V</th></tr>{}</table>",
+            "<table><tr><th>time</th><th>position</th><th>speed</th><th>readings</th></tr>"
+            "{}</table>",
             rows,
         )
 
@@ -69,7 +73,7 @@ class FleetVesselAdmin(VesselAdmin):
             '<tr><td>{}</td><td><a href="{}">{}</a></td><td>{}</td><td>{}</td><td>{}</td></tr>',
             (
                 (
-                    c.created_at.strftime("%Y-%m-%d %H:%M:%S"),
+                    fmt_time(c.created_at),
                     reverse("admin:commands_command_change", args=[c.pk]),
                     c.kind,
                     c.status,
@@ -81,7 +85,7 @@ class FleetVesselAdmin(VesselAdmin):
         )
         link = reverse("admin:commands_command_add") + f"?vessel={vessel.pk}"
         return format_html(
-            "<table><tr><th>created (UTC)</th><th>kind</th><th>status</th><th>source</th>"
+            "<table><tr><th>created</th><th>kind</th><th>status</th><th>source</th>"
             "<th>detail</th></tr>"
             '{}</table><a class="button" href="{}">Queue a command</a>',
             rows,

@@ -16,12 +16,11 @@ from django.urls import reverse
 
 from fleet.map_actions import map_actions
 from telemetry.models import SensorChannel
+from vessels.display import BATTERY, state_channels_config
 from vessels.models import OVERDUE_PERIODS, VesselKind
 
 SLUG = "__slug__"  # placeholder the scripts replace with a vessel's slug
 UID = "__uid__"
-# Battery voltage is a Fix column, not a reading, but plots and panels label it the same way.
-BATTERY = {"label": "Battery", "unit": "V"}
 # The fleet map's side panel lists this many of the vessel's newest commands.
 PANEL_COMMANDS = 8
 
@@ -32,6 +31,17 @@ def sensor_channels() -> dict[str, dict[str, Any]]:
         c.key: {"label": c.label, "unit": c.unit, "min": c.minimum, "max": c.maximum}
         for c in SensorChannel.objects.all()
     }
+
+
+def page_channels() -> dict[str, dict[str, Any]]:
+    """The channels a page labels its readings with: battery, the state channels (mode, armed:
+    named values, plotted as steps) and every SensorChannel. A SensorChannel row for a state
+    channel relabels it; its named values stay."""
+    states, sensors = state_channels_config(), sensor_channels()
+    channels = {"battery_v": BATTERY, **states, **sensors}
+    for key in states.keys() & sensors.keys():
+        channels[key] = {**states[key], **sensors[key]}
+    return channels
 
 
 def can_view_fleet(user: AbstractBaseUser) -> bool:
@@ -62,7 +72,7 @@ def fleet_map_config(request: HttpRequest) -> dict[str, Any]:
         "canCancel": user.has_perm("commands.change_command"),
         "canViewCommands": user.has_perm("commands.view_command"),
         "csrfToken": get_token(request),
-        "channels": {"battery_v": BATTERY, **sensor_channels()},
+        "channels": page_channels(),
         # Without the add permission, no buttons: the API would answer 403 anyway.
         "actions": {kind: map_actions(kind) if can_command else [] for kind in VesselKind.values},
     }
@@ -81,5 +91,5 @@ def track_page_config(request: HttpRequest, slug: str) -> dict[str, Any]:
         "seriesUrl": url("vessel-series"),
         "exportUrl": url("vessel-track-export"),
         "pageUrl": url("fleet-track"),
-        "channels": {"battery_v": BATTERY, **sensor_channels()},
+        "channels": page_channels(),
     }

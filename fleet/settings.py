@@ -245,6 +245,8 @@ AUTH_PASSWORD_VALIDATORS = [
 
 LANGUAGE_CODE = "en-gb"
 TIME_ZONE = "UTC"
+# Times read "2026-11-25 14:03:27 UTC" across the admin (vessels/display.py's format).
+FORMAT_MODULE_PATH = ["fleet.formats"]
 USE_I18N = True
 USE_TZ = True
 

@@ -11,6 +11,7 @@ from django.db.models import QuerySet
 from django.http import HttpRequest
 from django.urls import reverse
 from django.utils.html import format_html, format_html_join
+from django.utils.safestring import SafeString
 
 from sms.errors import InvalidNumber
 from sms.models import AuthorisedNumber, Direction, SmsMessage
@@ -20,6 +21,7 @@ from sms.services import (
     number_normalise,
 )
 from telemetry.admin import CappedCountPaginator, VesselFilter
+from vessels.display import fmt_time
 
 TEXT_SHOWN = 160  # one SMS
 
@@ -140,9 +142,9 @@ class SmsMessageAdmin(admin.ModelAdmin):
     def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
         return False  # the log stays (DESIGN §3)
 
-    @admin.display(description="time (UTC)", ordering="-created_at")
-    def when(self, message: SmsMessage) -> str:
-        return message.created_at.strftime("%Y-%m-%d %H:%M:%S")
+    @admin.display(description="time", ordering="-created_at")
+    def when(self, message: SmsMessage) -> SafeString:
+        return format_html('<span class="nowrap">{}</span>', fmt_time(message.created_at))
 
     @admin.display(description="dir", ordering="direction")
     def way(self, message: SmsMessage) -> str:

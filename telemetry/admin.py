@@ -7,14 +7,26 @@ from typing import Any
 
 from django.contrib import admin
 from django.contrib.admin.options import IncorrectLookupParameters
+from django.contrib.admin.views.main import ChangeList
 from django.core.paginator import Paginator
 from django.db.models import QuerySet
 from django.http import HttpRequest
 from django.utils import timezone
 from django.utils.functional import cached_property
+from django.utils.html import format_html, format_html_join
+from django.utils.safestring import SafeString
 
 from telemetry.models import Fix, SensorChannel
 from telemetry.services import fixes_delete, sensor_channel_save
+from vessels.display import (
+    BATTERY,
+    fmt_ddm,
+    fmt_heading,
+    fmt_position,
+    fmt_readings,
+    fmt_speed,
+    fmt_time,
+)
 from vessels.models import Vessel
 
 # Counting past this is never worth a full scan: the admin shows "10000+" pages' worth.
@@ -76,35 +88,99 @@ class RecordedFilter(admin.SimpleListFilter):
         return queryset.filter(recorded_at__gte=timezone.now() - span) if span else queryset
 
 
+def channel_labels() -> dict[str, dict[str, Any]]:
+    """{key: {label, unit}}: battery, then every SensorChannel (a few dozen rows at most)."""
+    labels = {"battery_v": BATTERY}
+    labels.update({c.key: {"label": c.label, "unit": c.unit} for c in SensorChannel.objects.all()})
+    return labels
+
+
+def readings_html(fix: Fix, labels: dict[str, dict[str, Any]]) -> SafeString:
+    """A fix's battery and readings on one line: ``Mode HOLD · armed · Battery 12.4 V · …``."""
+    values = dict(fix.readings or {})
+    if fix.battery_v is not None:
+        values["battery_v"] = fix.battery_v
+    parts = fmt_readings(values, labels)
+    if not parts:
+        return format_html("{}", "–")
+    # One unbreakable piece per reading, the dot kept with the one before: a narrow window
+    # wraps between readings, never between a label and its value nor before a dot.
+    return format_html_join("\u00a0· ", '<span class="nowrap">{}</span>', ((p,) for p in parts))
+
+
+class FixChangeList(ChangeList):
+    """Reads the channel labels once for the page and hands them to its rows."""
+
+    def get_results(self, request: HttpRequest) -> None:
+        super().get_results(request)
+        labels = channel_labels()
+        for fix in self.result_list:
+            fix.channel_labels = labels
+
+
 @admin.register(Fix)
 class FixAdmin(admin.ModelAdmin):
-    list_display = [
-        "recorded_at",
-        "vessel",
-        "lat",
-        "lon",
-        "heading_deg",
-        "speed_mps",
-        "battery_v",
-        "readings",
-    ]
+    # Narrow columns, each reading a short unbreakable piece: the list fits a 1400 px window
+    # and a row stays one line unless it has many readings.
+    list_display = ["time", "vessel", "position", "heading", "speed", "readings_line"]
     list_filter = [VesselFilter, RecordedFilter]
     list_select_related = ["vessel"]
     ordering = ["-recorded_at"]
     paginator = CappedCountPaginator
     show_full_result_count = False
     list_per_page = 100
-    readonly_fields = [
+    fields = [
         "vessel",
-        "recorded_at",
-        "received_at",
-        "lat",
-        "lon",
-        "heading_deg",
-        "speed_mps",
-        "battery_v",
-        "readings",
+        "time",
+        "received",
+        "position",
+        "heading",
+        "speed",
+        "readings_line",
     ]
+    readonly_fields = fields
+
+    class Media:
+        css = {"all": ["telemetry/fix_list.css"]}
+
+    def get_changelist(self, request: HttpRequest, **kwargs: Any) -> type[ChangeList]:
+        return FixChangeList
+
+    def changelist_view(self, request: HttpRequest, extra_context: Any = None) -> Any:
+        # The admin's widest list: without the app navigation on its left (the breadcrumbs
+        # lead back) and with its filters above it (fix_list.css), a usual fix's readings stay
+        # on one line in a 1400 px window.
+        context = {"is_nav_sidebar_enabled": False, **(extra_context or {})}
+        return super().changelist_view(request, extra_context=context)
+
+    @admin.display(description="time", ordering="recorded_at")
+    def time(self, fix: Fix) -> SafeString:
+        return format_html('<span class="nowrap">{}</span>', fmt_time(fix.recorded_at))
+
+    @admin.display(description="received")
+    def received(self, fix: Fix) -> str:
+        return fmt_time(fix.received_at)
+
+    @admin.display(description="position")
+    def position(self, fix: Fix) -> SafeString:
+        # Decimal degrees to read and copy; the chart form (degrees, decimal minutes) on hover.
+        return format_html(
+            '<span class="nowrap" title="{}">{}</span>',
+            fmt_ddm(fix.lat, fix.lon),
+            fmt_position(fix.lat, fix.lon),
+        )
+
+    @admin.display(description="heading")
+    def heading(self, fix: Fix) -> str:
+        return fmt_heading(fix.heading_deg)
+
+    @admin.display(description="speed")
+    def speed(self, fix: Fix) -> SafeString:
+        return format_html('<span class="nowrap">{}</span>', fmt_speed(fix.speed_mps))
+
+    @admin.display(description="readings")
+    def readings_line(self, fix: Fix) -> SafeString:
+        return readings_html(fix, getattr(fix, "channel_labels", None) or channel_labels())
 
     # Fixes are the vessel's record of what happened: read-only, never typed in.
     def has_add_permission(self, request: HttpRequest) -> bool:

@@ -21,6 +21,7 @@ from django.utils import timezone
 from django.utils.html import format_html, format_html_join
 
 from vessels import missionfiles
+from vessels.display import fmt_ddm, fmt_position, fmt_speed
 from vessels.errors import MissionFileError
 from vessels.missions import (
     DEFAULT_CRUISE_SPEED_MPS,
@@ -151,7 +152,12 @@ class VesselAdmin(admin.ModelAdmin):
         fix = vessel.last_fix or {}
         if "lat" not in fix:
             return "–"
-        return f"{fix['lat']:.5f}, {fix['lon']:.5f}"
+        # Decimal degrees; the chart form (degrees, decimal minutes) on hover.
+        return format_html(
+            '<span title="{}">{}</span>',
+            fmt_ddm(fix["lat"], fix["lon"]),
+            fmt_position(fix["lat"], fix["lon"]),
+        )
 
     @admin.display(description="battery (V)")
     def battery(self, vessel: Vessel) -> str:
@@ -339,7 +345,7 @@ class MissionAdmin(admin.ModelAdmin):
                     leg["to"],
                     leg["distance"],
                     f"{leg['bearing_deg']:.0f}",
-                    f"{leg['speed_mps']:g} m/s",
+                    fmt_speed(leg["speed_mps"]),
                     leg["time"],
                     leg["problem"] or "",
                 )
@@ -349,11 +355,11 @@ class MissionAdmin(admin.ModelAdmin):
         return format_html(
             '<table id="mission-route"><tr><th>leg</th><th>distance</th><th>bearing</th>'
             "<th>speed</th><th>time</th><th></th></tr>{}</table>"
-            '<p><b id="mission-route-total">{}</b> (at a cruise speed of {} m/s unless an item '
+            '<p><b id="mission-route-total">{}</b> (at a cruise speed of {} unless an item '
             "sets its own)</p>",
             rows,
             review["total"],
-            f"{speed:g}",
+            fmt_speed(speed),
         )
 
     @admin.display(description="export")

@@ -26,7 +26,7 @@ def test_an_operator_logs_in_and_queues_a_move_to(
     fix_ingest(vessel=vessel_a, records=[make_fix()])
     log_in(browser, live_server, operator_user)
     browser.get(live_server.url + "/admin/vessels/vessel/")
-    assert "SPAB" in browser.page_source and "-31.95050, 115.86050" in browser.page_source
+    assert "SPAB" in browser.page_source and "-31.95050°, 115.86050°" in browser.page_source
     shot(browser, "vessel-list")
 
     browser.get(live_server.url + f"/admin/commands/command/add/?vessel={vessel_a.pk}")

@@ -16,6 +16,7 @@ from telemetry.services import fix_ingest
 from tests.browser.support import js, log_in, shot, wait_for
 from tests.conftest import make_user
 from vessels import geo
+from vessels.display import fmt_position
 from vessels.missions import legs
 from vessels.models import Mission, Vessel
 from vessels.services import mission_save, mission_save_items, vessel_create
@@ -94,7 +95,7 @@ def test_a_three_point_mission_is_clicked_onto_the_map_dragged_saved_and_reloade
     browser.find_element(By.NAME, "_continue").click()
     wait_for(browser, lambda b: "/change/" in b.current_url)
     mission = Mission.objects.get(name="Matilda Bay survey")
-    saved = [(i.seq, f"{i.lat:.5f}, {i.lon:.5f}") for i in mission.items.order_by("seq")]
+    saved = [(i.seq, fmt_position(i.lat, i.lon)) for i in mission.items.order_by("seq")]
     assert saved == [(1, after[0]), (2, after[1]), (3, after[2])]
     assert mission.vessel == vessel_a
 
@@ -143,7 +144,7 @@ def test_deleting_and_reordering_in_the_list_keeps_rows_and_map_in_step(
     browser.find_element(By.NAME, "_continue").click()
     wait_for(browser, lambda b: "/change/" in b.current_url)
     items = Mission.objects.get(name="Reorder").items.order_by("seq")
-    assert [f"{i.lat:.5f}, {i.lon:.5f}" for i in items] == [second, first]
+    assert [fmt_position(i.lat, i.lon) for i in items] == [second, first]
 
 
 WAYPOINTS = """QGC WPL 110
@@ -172,9 +173,9 @@ def test_a_mission_planner_waypoints_file_is_imported_and_shown_on_the_map(
     wait_for(browser, lambda b: len(markers(b)) == 3)
     js(browser, "document.querySelector('fieldset.planner').scrollIntoView()")
     assert planner_rows(browser) == [
-        "-31.98000, 115.82000",
-        "-31.98200, 115.82300",
-        "-31.97850, 115.82400",
+        "-31.98000°, 115.82000°",
+        "-31.98200°, 115.82300°",
+        "-31.97850°, 115.82400°",
     ]
     assert "Imported" in browser.page_source
     shot(browser, "import-2-on-the-map")
@@ -266,7 +267,7 @@ def test_send_refuses_an_unsaved_deletion_then_sends_exactly_what_the_screen_sho
     wait_for(browser, lambda b: "queued as command" in b.page_source)
     shot(browser, "send-2-queued")
     queued = Command.objects.get().params["items"]
-    assert [f"{i['lat']:.5f}, {i['lon']:.5f}" for i in queued] == on_screen
+    assert [fmt_position(i["lat"], i["lon"]) for i in queued] == on_screen
 
 
 def test_an_impossible_row_and_an_over_long_leg_are_marked_live(

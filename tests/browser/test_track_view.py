@@ -129,7 +129,7 @@ def test_an_operator_reads_a_track_changes_its_range_and_links_plots_and_map(
     wait_for(browser, lambda b: js(b, inside))
     shot(browser, "track-4-nearest-fix")
     text = popup.get_attribute("textContent")
-    for expected in ("Time", "Position", "Speed", "1.50 m/s", "Heading", "Battery", " V"):
+    for expected in ("Time", "Position", "Speed", "1.5 m/s (2.9 kn)", "Heading", "Battery", " V"):
         assert expected in text
     assert "Water temperature" in text and "°C" in text and "salinity_psu" in text
     assert js(browser, "return window.shoresideTrack.markedT") is not None

@@ -113,3 +113,24 @@ def test_the_send_action_needs_the_right_to_see_vessels_as_the_api_does(
     assert not Command.objects.exists()
     client.force_login(make_user("vic", [*perms, "vessels.view_vessel"]))
     assert "send_to_vessel" in client.get("/admin/vessels/mission/").content.decode()
+
+
+def test_the_vessel_pages_recent_fixes_read_as_the_fixes_list(
+    admin_ui: Client, vessel_a: Vessel, make_fix
+) -> None:
+    from telemetry.services import fix_ingest
+
+    fix_ingest(
+        vessel=vessel_a,
+        records=[make_fix(lat=-32.038, lon=115.3325, readings={"mode_number": 11, "armed": 0})],
+    )
+    command_enqueue(vessel=vessel_a, kind="hold", params={})
+    page = admin_ui.get(f"/admin/vessels/vessel/{vessel_a.pk}/change/").content.decode()
+    assert '<td class="nowrap">2026-11-23 10:00:00 UTC</td>' in page
+    assert 'title="32°02.280′S 115°19.950′E">-32.03800°, 115.33250°</td>' in page
+    assert "1.2 m/s (2.3 kn)" in page
+    assert (
+        '<span class="nowrap">Mode RTL</span>\u00a0· <span class="nowrap">disarmed</span>' in page
+    )
+    command = Command.objects.get()
+    assert f"<td>{command.created_at:%Y-%m-%d %H:%M:%S} UTC</td>" in page

@@ -56,6 +56,7 @@ PURE = [
     "commands/errors.py",
     "telemetry/parsing.py",
     "vessels/geo.py",
+    "vessels/display.py",
     "vessels/clock.py",
     "vessels/errors.py",
     "vessels/missions.py",

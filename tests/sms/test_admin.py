@@ -13,6 +13,7 @@ from commands.models import Command
 from sms.models import AuthorisedNumber, SmsMessage
 from sms.services import authorised_number_authorise, sms_handle_incoming
 from tests.support import BASE
+from vessels.display import fmt_time
 from vessels.models import Vessel
 
 SKIPPER = "+61412345678"
@@ -121,3 +122,13 @@ def test_the_deauthorise_action_makes_numbers_inactive(admin_client: Client, tra
     entry.refresh_from_db()
     assert not entry.active
     assert SmsMessage.objects.filter(authorised_number=entry).exists()  # the log keeps its name
+
+
+def test_the_sms_log_reads_times_in_utc_with_seconds(admin_client: Client, traffic: Any) -> None:
+    # The list's own column and Django's fields on the message page read the same way.
+    listed = admin_client.get("/admin/sms/smsmessage/").content.decode()
+    message = SmsMessage.objects.get(pk=traffic.message.pk)
+    assert f'<span class="nowrap">{fmt_time(message.created_at)}</span>' in listed
+    page = admin_client.get(f"/admin/sms/smsmessage/{message.pk}/change/").content.decode()
+    assert fmt_time(message.received_at) == BASE.strftime("%Y-%m-%d %H:%M:%S UTC")
+    assert fmt_time(message.received_at) in page

@@ -5,6 +5,8 @@ from __future__ import annotations
 import pytest
 from django.test import Client
 
+from telemetry.models import Fix
+from telemetry.services import fix_ingest
 from vessels.models import Vessel
 
 pytestmark = pytest.mark.django_db
@@ -40,3 +42,43 @@ def test_a_sensor_channel_is_added_and_validated_in_the_admin(admin_ui: Client) 
     )
     assert good.status_code == 302
     assert SensorChannel.objects.get().key == "water_temp_c"
+
+
+def test_the_fix_list_reads_seconds_positions_speeds_and_compact_readings(
+    admin_ui: Client, vessel_a: Vessel, make_fix
+) -> None:
+    from telemetry.models import SensorChannel
+
+    SensorChannel.objects.create(key="humidity", label="Humidity", unit="%")
+    readings = {"humidity": 41.0, "mode_number": 4, "armed": 0, "raw_x": 3}
+    fix_ingest(
+        vessel=vessel_a,
+        records=[
+            make_fix(time="2026-11-25T14:03:22Z", readings=readings, speed_mps=1.5),
+            make_fix(time="2026-11-25T14:03:27Z", readings={**readings, "mode_number": 10}),
+        ],
+    )
+    page = admin_ui.get("/admin/telemetry/fix/").content.decode()
+    # Five seconds apart, and they read so.
+    assert "2026-11-25 14:03:22 UTC" in page and "2026-11-25 14:03:27 UTC" in page
+    assert (
+        '<span class="nowrap" title="31°57.030′S 115°51.630′E">-31.95050°, 115.86050°</span>'
+        in page
+    )
+    assert "1.5 m/s (2.9 kn)" in page
+    line = "\u00a0· ".join(
+        f'<span class="nowrap">{part}</span>'
+        for part in ("Mode HOLD", "disarmed", "Battery 12.6 V", "Humidity 41 %", "raw_x 3")
+    )
+    assert line in page
+    assert "Mode AUTO" in page
+    assert "mode_number" not in page and "&quot;armed&quot;" not in page  # no raw JSON
+
+
+def test_a_fix_page_reads_the_same(admin_ui: Client, vessel_a: Vessel, make_fix) -> None:
+    fix_ingest(vessel=vessel_a, records=[make_fix(readings={"armed": 1, "mode_number": 15})])
+    fix = Fix.objects.get()
+    page = admin_ui.get(f"/admin/telemetry/fix/{fix.pk}/change/").content.decode()
+    assert "2026-11-23 10:00:00 UTC" in page
+    assert "Mode GUIDED" in page and ">armed<" in page
+    assert "1.2 m/s (2.3 kn)" in page

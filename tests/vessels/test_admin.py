@@ -24,7 +24,8 @@ def test_it_lists_vessels_with_status_position_and_battery(
 ) -> None:
     page = admin_ui.get("/admin/vessels/vessel/").content.decode()
     assert "SPAB 2" in page and "never seen" in page
-    assert "-31.95050, 115.86050" in page
+    # Decimal degrees, the chart form on hover (one position format, vessels.display).
+    assert '<span title="31°57.030′S 115°51.630′E">-31.95050°, 115.86050°</span>' in page
     assert "12.34" in page
 
 
@@ -181,7 +182,7 @@ def test_the_mission_page_shows_legs_totals_and_export_links(
         items=[{"lat": -32.0, "lon": 115.0}, {"lat": -32.0 + 900 / 111_195, "lon": 115.0}],
     )
     page = admin_ui.get(f"/admin/vessels/mission/{mission.pk}/change/").content.decode()
-    assert "<td>1 → 2</td><td>900 m</td><td>0°</td><td>1.5 m/s</td><td>10 min</td>" in page
+    assert "<td>1 → 2</td><td>900 m</td><td>0°</td><td>1.5 m/s (2.9 kn)</td><td>10 min</td>" in page
     assert '<b id="mission-route-total">2 waypoints · 900 m · 10 min</b>' in page
     for fmt in ("plan", "waypoints", "geojson"):
         assert f"/admin/vessels/mission/{mission.pk}/export/{fmt}/" in page

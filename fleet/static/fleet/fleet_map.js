@@ -168,7 +168,9 @@
       if (!node) { return; }
       var html = self.markerHtml(v, st);
       if (node.shoresideHtml !== html) { node.innerHTML = html; node.shoresideHtml = html; }
-      node.querySelector(".vessel-age").textContent = st.fixAge === null ? "" : S.fmtDuration(st.fixAge);
+      var age = node.querySelector(".vessel-age");
+      age.textContent = st.fixAge === null ? "" : S.fmtDuration(st.fixAge);
+      age.title = v.last_fix ? "last fix " + S.fmtTime(v.last_fix.time) : "";
       node.setAttribute("data-slug", slug);
       node.setAttribute("data-status", st.status);
       L.DomUtil[slug === self.selected ? "addClass" : "removeClass"](node, "selected");
@@ -181,7 +183,7 @@
   };
 
   FleetMap.prototype.ageSpan = function (since, suffix) {
-    return el("span", { class: "age", "data-since": since, "data-suffix": suffix || "" });
+    return el("span", { class: "age", "data-since": since, "data-suffix": suffix || "", title: S.fmtTime(since) });
   };
 
   FleetMap.prototype.updateAges = function () {
@@ -254,14 +256,14 @@
     box.appendChild(el("h3", { text: "Last fix" }));
     var rows = [
       ["Time", el("span", {}, [S.fmtTime(fix.time) + " (", this.ageSpan(fix.time, " ago"), ")"])],
-      ["Position", S.fmtDDM(fix.lat, fix.lon)],
-      ["Speed", fix.speed_mps === null || fix.speed_mps === undefined ? "–" : S.fmtValue(fix.speed_mps, "m/s") + " (" + (fix.speed_mps * 1.943844).toFixed(1) + " kn)"],
-      ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
+      ["Position", S.positionEl(fix.lat, fix.lon)],
+      ["Speed", S.fmtSpeed(fix.speed_mps)],
+      ["Heading", S.fmtHeading(fix.heading_deg)],
       [this.label("battery_v"), S.fmtValue(fix.battery_v, this.unit("battery_v"))],
     ];
     var readings = fix.readings || {};
-    Object.keys(readings).sort().forEach(function (key) {
-      rows.push([self.label(key), S.fmtValue(readings[key], self.unit(key))]);
+    S.readingKeys(readings, this.cfg.channels).forEach(function (key) {
+      rows.push([self.label(key), S.fmtReading(key, readings[key], self.cfg.channels)]);
     });
     var table = el("table", { class: "readings" });
     rows.forEach(function (r) {
@@ -378,7 +380,7 @@
     }
     L.circleMarker(latlng, { radius: 7, color: "#1565c0", weight: 2, fillOpacity: 0.3, interactive: false }).addTo(this.overlay);
     if (this.pick.input === "point") {
-      var where = S.fmtDDM(latlng.lat, latlng.lng);
+      var where = S.fmtPosition(latlng.lat, latlng.lng) + " (" + S.fmtDDM(latlng.lat, latlng.lng) + ")";
       var text = "Move " + v.name + " to " + where + "?";
       var warning = null;
       if (fix) {
@@ -544,6 +546,7 @@
   function summary(params) {
     if (!params) { return ""; }
     if (params.items) { return params.items.length + " items"; }
+    if (typeof params.lat === "number" && typeof params.lon === "number") { return S.fmtPosition(params.lat, params.lon); }
     return Object.keys(params).map(function (k) {
       var v = params[k];
       return k + " " + (typeof v === "number" ? +v.toFixed(5) : v);

@@ -138,7 +138,8 @@
       .bindTooltip("start " + S.fmtTime(first.t)).addTo(this.trackLayer);
     L.circleMarker([last.lat, last.lon], { radius: 6, color: "#c62828", fillOpacity: 0.9 })
       .bindTooltip("end " + S.fmtTime(last.t)).addTo(this.trackLayer);
-    this.map.fitBounds(line.getBounds().pad(0.1), { maxZoom: 16 });
+    // No zoom animation: a new range is drawn at once, and a click lands where it shows.
+    this.map.fitBounds(line.getBounds().pad(0.1), { maxZoom: 16, animate: false });
   };
 
   // The track's vertex nearest the click (on screen), then the server's fix nearest its time.
@@ -161,19 +162,20 @@
   };
 
   TrackPage.prototype.fixTable = function (fix) {
-    var cfg = this.cfg;
-    function label(key) { return cfg.channels[key] ? cfg.channels[key].label : key; }
-    function unit(key) { return cfg.channels[key] ? cfg.channels[key].unit : ""; }
+    var channels = this.cfg.channels;
+    function label(key) { return S.channelLabel(key, channels); }
     var rows = [
       ["Time", S.fmtTime(fix.time)],
-      ["Position", S.fmtDDM(fix.lat, fix.lon) + " (" + S.fmtLatLon(fix.lat, fix.lon) + ")"],
-      ["Speed", S.fmtValue(fix.speed_mps, "m/s")],
-      ["Heading", fix.heading_deg === null || fix.heading_deg === undefined ? "–" : Math.round(fix.heading_deg) + "°"],
-      [label("battery_v"), S.fmtValue(fix.battery_v, unit("battery_v"))],
+      ["Position", S.positionEl(fix.lat, fix.lon)],
+      ["Speed", S.fmtSpeed(fix.speed_mps)],
+      ["Heading", S.fmtHeading(fix.heading_deg)],
+      [label("battery_v"), S.fmtReading("battery_v", fix.battery_v, channels)],
     ];
     var readings = fix.readings || {};
-    Object.keys(readings).sort().forEach(function (k) { rows.push([label(k), S.fmtValue(readings[k], unit(k))]); });
-    var table = el("table", {}, rows.map(function (r) { return el("tr", {}, [el("th", { text: r[0] }), el("td", { text: r[1] })]); }));
+    S.readingKeys(readings, channels).forEach(function (k) { rows.push([label(k), S.fmtReading(k, readings[k], channels)]); });
+    var table = el("table", {}, rows.map(function (r) {
+      return el("tr", {}, [el("th", { text: r[0] }), typeof r[1] === "string" ? el("td", { text: r[1] }) : el("td", {}, [r[1]])]);
+    }));
     return el("div", { class: "fix-popup" }, [table]);
   };
 
@@ -240,6 +242,8 @@
       var title = self.label(key, data) + (unit ? " (" + unit + ")" : "");
       var holder = el("div", { class: "plot", "data-key": key }, [el("p", { class: "plot-title", text: title })]);
       box.appendChild(holder);
+      var states = known && known.states;
+      holder.setAttribute("data-plot", states ? "steps" : "line");
       var opts = {
         width: box.clientWidth || 800,
         height: PLOT_HEIGHT,
@@ -248,16 +252,16 @@
         legend: { show: true },
         scales: {
           x: { time: true, range: [self.from.getTime() / 1000, self.to.getTime() / 1000] },
-          y: { range: yRange(known) },
+          y: { range: states ? stateRange(states) : yRange(known) },
         },
-        series: [
+        series: states ? stateSeries(states, colour, gaps) : [
           { label: "time (UTC)", value: function (u, v) { return v === null || v === undefined ? "–" : S.fmtTime(v); } },
           { label: "min", stroke: colour + "66", width: 1, value: fmt(unit), gaps: gaps },
           { label: "max", stroke: colour + "66", width: 1, value: fmt(unit), gaps: gaps },
           { label: "mean", stroke: colour, width: 1.5, value: fmt(unit), gaps: gaps },
         ],
         bands: [{ series: [2, 1], fill: colour + "33" }],
-        axes: [{ values: timeLabels, space: 70 }, { size: 55 }],
+        axes: [{ values: timeLabels, space: 70 }, states ? stateAxis(states, ch) : { size: 55 }],
         hooks: {
           setCursor: [function (u) {
             var idx = u.cursor.idx;
@@ -266,7 +270,10 @@
           draw: [function (u) { self.drawMark(u); }],
         },
       };
-      self.plots.push(new uPlot(opts, [data.t, ch.min, ch.max, ch.mean], holder));
+      // A state has no mean: its plot is the bucket's lowest and highest state as steps, the
+      // band between them where it changed within the bucket.
+      var columns = states ? [data.t, ch.min, ch.max] : [data.t, ch.min, ch.max, ch.mean];
+      self.plots.push(new uPlot(opts, columns, holder));
     });
   };
 
@@ -316,6 +323,51 @@
       if (day !== lastDay) { label += "\n" + day; lastDay = day; }
       return label;
     });
+  }
+
+  // State channels (mode, armed): steps between named values, the names on the axis and in
+  // the legend; a line between HOLD (4) and GUIDED (15) would pass through modes never set.
+  function stateSeries(states, colour, gaps) {
+    var steps = uPlot.paths.stepped({ align: 1 });
+    function named(u, v) {
+      if (v === null || v === undefined) { return "–"; }
+      return Object.prototype.hasOwnProperty.call(states, String(v)) ? states[String(v)] : String(v);
+    }
+    return [
+      { label: "time (UTC)", value: function (u, v) { return v === null || v === undefined ? "–" : S.fmtTime(v); } },
+      { label: "min", stroke: colour, width: 2, paths: steps, value: named, gaps: gaps },
+      { label: "max", stroke: colour, width: 2, paths: steps, value: named, gaps: gaps },
+    ];
+  }
+
+  function stateValues(states) {
+    return Object.keys(states).map(Number).sort(function (a, b) { return a - b; });
+  }
+
+  // A two-state channel (armed) shows both rows; a longer table (mode) the span of the states
+  // seen; half a step of room either side.
+  function stateRange(states) {
+    return function (u, dataMin, dataMax) {
+      var values = stateValues(states), all = values.length <= 2 || dataMin === null;
+      var lo = all ? values[0] : dataMin, hi = all ? values[values.length - 1] : dataMax;
+      return [lo - 0.5, Math.max(hi, lo + 1) + 0.5];
+    };
+  }
+
+  // Ticks at the named values seen in the data (all of them for a two-state channel), by name.
+  function stateAxis(states) {
+    return {
+      size: 80,
+      splits: function (u) {
+        var seen = {};
+        [u.data[1], u.data[2]].forEach(function (col) {
+          (col || []).forEach(function (v) { if (v !== null && v !== undefined) { seen[v] = true; } });
+        });
+        var values = stateValues(states);
+        return values.filter(function (v) { return values.length <= 2 || seen[v]; });
+      },
+      values: function (u, splits) { return splits.map(function (v) { return states[String(v)] || String(v); }); },
+    };
   }
 
   function fmt(unit) {

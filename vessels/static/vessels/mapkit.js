@@ -60,24 +60,74 @@
     if (s < 86400) { return Math.floor(s / 3600) + " h " + Math.floor((s % 3600) / 60) + " min"; }
     return Math.floor(s / 86400) + " d " + Math.floor((s % 86400) / 3600) + " h";
   };
+  // The one way a page shows a time, a position, a speed and a reading; vessels/display.py
+  // writes the same on the server (a browser test compares them).
+  var KNOTS_PER_MPS = 3600 / 1852;
   S.fmtTime = function (value) {
+    if (value === null || value === undefined) { return "–"; }
     var d = typeof value === "number" ? new Date(value * 1000) : new Date(value);
-    return isNaN(d) ? "–" : d.toISOString().slice(0, 19).replace("T", " ") + "Z";
+    return isNaN(d) ? "–" : d.toISOString().slice(0, 19).replace("T", " ") + " UTC";
   };
-  S.fmtLatLon = function (lat, lon) { return lat.toFixed(5) + ", " + lon.toFixed(5); };
-  // Degrees and decimal minutes, as on a chart and a plotter.
+  S.fmtPosition = function (lat, lon) { return lat.toFixed(5) + "°, " + lon.toFixed(5) + "°"; };
+  // Degrees and decimal minutes, as on a chart and a plotter: 32°02.280′S 115°19.950′E.
   S.fmtDDM = function (lat, lon) {
     function part(v, pos, neg) {
-      var a = Math.abs(v), d = Math.floor(a), m = (a - d) * 60;
-      return d + "°" + m.toFixed(3) + "′" + (v >= 0 ? pos : neg);
+      // Minutes rounded first, so 59.9996′ carries into the degrees instead of showing 60.000′.
+      var thousandths = Math.round(Math.abs(v) * 60000), d = Math.floor(thousandths / 60000);
+      var m = ((thousandths % 60000) / 1000).toFixed(3);
+      return d + "°" + (m.length < 6 ? "0" + m : m) + "′" + (v >= 0 ? pos : neg);
     }
     return part(lat, "N", "S") + " " + part(lon, "E", "W");
   };
+  // A position in decimal degrees, with the chart form on hover.
+  S.positionEl = function (lat, lon) {
+    return S.el("span", { class: "position", title: S.fmtDDM(lat, lon), text: S.fmtPosition(lat, lon) });
+  };
+  S.fmtSpeed = function (mps) {
+    if (mps === null || mps === undefined) { return "–"; }
+    return mps.toFixed(1) + " m/s (" + (mps * KNOTS_PER_MPS).toFixed(1) + " kn)";
+  };
+  // Three digits, as a compass course is said: 090°.
+  S.fmtHeading = function (deg) {
+    if (deg === null || deg === undefined) { return "–"; }
+    return ("00" + (Math.round(deg) % 360)).slice(-3) + "°";
+  };
+  S.fmtNumber = function (v) {
+    if (typeof v !== "number") { return String(v); }
+    if (Number.isInteger(v)) { return String(v); }
+    var text = Math.abs(v) >= 100 ? v.toFixed(1) : v.toFixed(2);
+    text = text.replace(/(\.\d*?)0+$/, "$1").replace(/\.$/, "");
+    return text === "-0" ? "0" : text;
+  };
   S.fmtValue = function (v, unit) {
     if (v === null || v === undefined) { return "–"; }
-    var text = String(v);
-    if (typeof v === "number" && !Number.isInteger(v)) { text = Math.abs(v) >= 100 ? v.toFixed(1) : v.toFixed(2); }
+    var text = S.fmtNumber(v);
     return unit ? text + " " + unit : text;
+  };
+  // A state channel's value by name (HOLD, armed); null when it has none. `channels` is a
+  // page config's channels: the state channels carry {states: {"4": "HOLD"}}.
+  S.stateName = function (key, v, channels) {
+    var c = channels && channels[key];
+    if (!c || !c.states || typeof v !== "number" || !Number.isInteger(v)) { return null; }
+    return Object.prototype.hasOwnProperty.call(c.states, String(v)) ? c.states[String(v)] : null;
+  };
+  // One reading's value as a panel shows it: the state's name, or the number with its unit.
+  S.fmtReading = function (key, v, channels) {
+    var name = S.stateName(key, v, channels), c = (channels && channels[key]) || {};
+    return name !== null ? name : S.fmtValue(v, c.unit || "");
+  };
+  // A reading's label: the page's channel label, else the key.
+  S.channelLabel = function (key, channels) {
+    var c = channels && channels[key];
+    return (c && c.label) || key;
+  };
+  // The readings' keys in the order the pages list them: state channels first, then by key.
+  S.readingKeys = function (readings, channels) {
+    var keys = Object.keys(readings || {});
+    function isState(k) { return !!(channels && channels[k] && channels[k].states); }
+    // The states in the page config's order (mode, then armed), as vessels/display.py lists them.
+    var states = Object.keys(channels || {}).filter(function (k) { return isState(k) && keys.indexOf(k) >= 0; });
+    return states.concat(keys.filter(function (k) { return !isState(k); }).sort());
   };
 
   S.getJSON = function (url, headers) {
@@ -146,7 +196,7 @@
       box.hidden = true; // until the pointer is over the map
       map.on("mousemove", function (e) {
         box.hidden = false;
-        box.textContent = S.fmtLatLon(e.latlng.lat, e.latlng.lng) + "  ·  " + S.fmtDDM(e.latlng.lat, e.latlng.lng);
+        box.textContent = S.fmtPosition(e.latlng.lat, e.latlng.lng) + "  ·  " + S.fmtDDM(e.latlng.lat, e.latlng.lng);
       });
       return box;
     },

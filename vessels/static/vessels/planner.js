@@ -280,11 +280,11 @@
       var label = drawable(item) ? String(++number) : "!";
       var tr = el("tr", { class: item.row && item.row === self.selected ? "selected" : "", "data-index": String(i + 1) }, [
         el("td", { text: label }),
-        el("td", { text: S.fmtLatLon(item.lat, item.lon), class: "planner-position" }),
+        el("td", { class: "planner-position" }, [S.positionEl(item.lat, item.lon)]),
         el("td", { class: "planner-leg", text: number === 1 && drawable(item) ? "start" : "" }),
         el("td", { class: "planner-time" }),
         el("td", { class: "planner-hold" }),
-        el("td", { text: item.speed === null ? "" : item.speed + " m/s" }),
+        el("td", { text: item.speed === null ? "" : S.fmtSpeed(item.speed) }),
         buttons,
       ]);
       tr.addEventListener("click", function (e) { if (e.target.tagName !== "BUTTON") { self.select(item.row); } });
@@ -333,7 +333,7 @@
     else if (end !== "stop") { endText += end === "return_home" ? " (home position not set: the autopilot's own home)." : "."; }
     var cruise = (vessel && vessel.cruise) || DEFAULT_CRUISE_SPEED_MPS;
     document.getElementById("planner-total").textContent = review.total;
-    document.getElementById("planner-end").textContent = "Times at a cruise speed of " + cruise + " m/s unless an item sets its own. " + endText;
+    document.getElementById("planner-end").textContent = "Times at a cruise speed of " + S.fmtSpeed(cruise) + " unless an item sets its own. " + endText;
     var list = document.getElementById("planner-problems");
     review.problems.forEach(function (p) { list.appendChild(el("li", { text: p })); });
     this.list.dataset.state = "ready";
