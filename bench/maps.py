@@ -17,7 +17,11 @@ three one-hour silences, and 99 more vessels for the fleet poll. Then:
 - the naive query next to them: every fix of the range read through the ORM and serialised as
   a GeoJSON Feature (what the issue measured at 13-18 s and 68 MB);
 - the ingest cost of the overview's dirty marks: 500-fix batches with and without them;
-- the export's rate and its memory: RSS growth while the whole range streams.
+- the export's rate and its memory: RSS growth while the whole range streams;
+- beside the CSV export, its ceiling: the same bytes written with nothing between the database
+  and them (PostgreSQL's ``COPY (…) TO STDOUT`` of the export's own line SQL; the ``sqlite3``
+  CLI running it, or a raw sqlite3 cursor loop where the CLI is missing), checked byte for
+  byte against the export on a day's range, then timed over the month.
 """
 
 from __future__ import annotations
@@ -28,12 +32,14 @@ import json
 import math
 import os
 import random
+import resource
 import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +54,7 @@ TARGETS = {
     "track 1 d": "≤ 20 ms",
     "series 30 d": "≤ 100 ms",
     "export csv": "≥ 250,000 fixes/s, flat memory",
+    "csv ceiling": "baseline: the same bytes, no Django",
     "export geojson": "≥ 250,000 fixes/s, flat memory",
     "fleet 100": "≤ 20 ms, 304 when unchanged",
 }
@@ -224,6 +231,85 @@ def export_run(client: Any, url: str) -> tuple[float, float, float, int]:
     return clock.wall, clock.cpu, (max(peak, rss_kb()) - before) / 1024, size
 
 
+def csv_ceiling(
+    vessel_id: int, start: dt.datetime, end: dt.datetime
+) -> tuple[str, Iterator[bytes]]:
+    """The CSV export's bytes for [start, end) written with nothing between the database and
+    them: (how, a generator of byte blocks). The export's own line SQL, so the same text."""
+    from django.db import connection
+
+    from telemetry.api import export
+
+    sql, params = export.fixes_sql(vessel_id, start, end, export.csv_line_sql())
+    header = export.CSV_HEADER.encode()
+    if connection.vendor == "postgresql":
+        return "COPY (…) TO STDOUT", _copy_blocks(connection, sql, params, header)
+    if shutil.which("sqlite3"):
+        return "sqlite3 CLI", _cli_blocks(connection, sql, params, header)
+    return "raw sqlite3 cursor", _cursor_blocks(connection, sql, params, header)
+
+
+def _copy_blocks(connection: Any, sql: str, params: list[Any], header: bytes) -> Iterator[bytes]:
+    # COPY's text format ends a row with LF: each row becomes CRLF like the export's. (It
+    # would also double a backslash; the benchmark's readings have none, and the byte check
+    # would catch one.)
+    yield header
+    with (
+        connection.cursor() as cursor,
+        cursor.cursor.copy(f"COPY ({sql}) TO STDOUT", params) as copy,
+    ):
+        for block in copy:
+            yield bytes(block).replace(b"\n", b"\r\n")
+
+
+def _cli_blocks(connection: Any, sql: str, params: list[Any], header: bytes) -> Iterator[bytes]:
+    # The CLI takes no parameters: ours are an integer and times as text.
+    parts = sql.split("%s")
+    literals = [
+        str(p) if isinstance(p, int) else "'" + str(p).replace("'", "''") + "'" for p in params
+    ]
+    text = "".join(part + value for part, value in zip(parts, [*literals, ""], strict=True))
+    argv = ["sqlite3", "-batch", "-noheader", "-list", "-separator", "", "-newline", "\r\n"]
+    argv += [connection.settings_dict["NAME"], text]
+    yield header
+    with subprocess.Popen(argv, stdout=subprocess.PIPE) as proc:
+        assert proc.stdout is not None
+        while block := proc.stdout.read(1 << 20):
+            yield block
+    assert proc.returncode == 0, proc.returncode
+
+
+def _cursor_blocks(connection: Any, sql: str, params: list[Any], header: bytes) -> Iterator[bytes]:
+    yield header
+    connection.ensure_connection()
+    cursor = connection.connection.cursor()
+    cursor.execute(sql.replace("%s", "?"), params)
+    while rows := cursor.fetchmany(5000):
+        yield ("\r\n".join(row[0] for row in rows) + "\r\n").encode()
+
+
+def ceiling_run(
+    client: Any,
+    vessel_id: int,
+    check: tuple[dt.datetime, dt.datetime],
+    url: str,
+    whole: tuple[dt.datetime, dt.datetime],
+) -> tuple[float, float, int, str]:
+    """(wall ms, CPU ms, bytes, how) of the CSV ceiling over the ``whole`` range, once it
+    wrote the same bytes as the export (``url``) over the ``check`` range. The CPU time counts
+    the sqlite3 CLI's too; PostgreSQL's server share is left out, as for the export."""
+    how, blocks = csv_ceiling(vessel_id, *check)
+    exported = b"".join(client.get(url).streaming_content)
+    assert b"".join(blocks) == exported, f"{how} wrote other bytes than the export"
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with Clock() as clock:
+        how, blocks = csv_ceiling(vessel_id, *whole)
+        size = sum(len(block) for block in blocks)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cli_ms = (after.ru_utime + after.ru_stime - children.ru_utime - children.ru_stime) * 1000
+    return clock.wall, clock.cpu + cli_ms, size, how
+
+
 def child(opts: argparse.Namespace) -> None:
     import django
 
@@ -279,6 +365,13 @@ def child(opts: argparse.Namespace) -> None:
         ms, cpu, grown, size = export_run(client, url)
         rates = f"{stored / ms * 1000:,.0f} /s wall, {stored / cpu * 1000:,.0f} /s CPU"
         figures[f"export {fmt}"] = (ms, cpu, size, f"{rates}, RSS +{grown:.0f} MB")
+        if fmt == "csv":
+            export_ms = ms
+            check_url = f"{base}/track/export/?{q(*day)}&format=csv"
+            ms, cpu, size, how = ceiling_run(client, vessel.pk, day, check_url, (start, end))
+            rates = f"{stored / ms * 1000:,.0f} /s wall, {stored / cpu * 1000:,.0f} /s CPU"
+            share = f"export at {ms / export_ms:.0%}"
+            figures["csv ceiling"] = (ms, cpu, size, f"{rates}, {how}, {share}")
 
     now = dt.datetime.now(dt.UTC)
     for i in range(FLEET_SIZE - 1):

@@ -1,4 +1,6 @@
-"""Full-resolution track exports (issue 9): CSV, GeoJSON and GPX 1.1, streamed.
+"""Full-resolution fix exports (issue 9): CSV, GeoJSON and GPX 1.1, streamed. One writer per
+format: every endpoint that offers a format answers with these bytes (the track export, and
+the fixes endpoint's CSV), so the same range gives the same file.
 
 Rows come from the database cursor in chunks (a server-side cursor on PostgreSQL) and leave in
 chunks: memory stays flat whatever the range. For CSV and GeoJSON the database writes each
@@ -12,11 +14,12 @@ from __future__ import annotations
 
 import datetime as dt
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import Iterable, Iterator
 from typing import Any
 from xml.sax.saxutils import escape
 
 from django.db import connection
+from django.http import StreamingHttpResponse
 
 from telemetry.models import Fix
 from telemetry.selectors import db_time, epoch_sql, iso_sql
@@ -27,7 +30,10 @@ FORMATS = {
     "geojson": "application/geo+json",
     "gpx": "application/gpx+xml",
 }
-CSV_HEADER = "time,lat,lon,heading_deg,speed_mps,battery_v,readings\r\n"
+# The fix's shape in every export (the names of the fix JSON: `time`, not `recorded_at`).
+COLUMNS = ("time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings")
+NUMBERS = COLUMNS[1:6]
+CSV_HEADER = ",".join(COLUMNS) + "\r\n"
 GPX_NS = "http://www.topografix.com/GPX/1/1"
 # Our own GPX extension namespace for speed and battery (GPX 1.1 has no field for either).
 EXT_NS = "https://shoreside.invalid/gpx/1"
@@ -37,44 +43,56 @@ QUOTE = '"'
 Row = tuple[str, float, float, float, float | None, float | None, float | None, str]
 
 
-def _rows(
-    vessel_id: int, start: dt.datetime, end: dt.datetime, *, epoch: bool = False
-) -> Iterator[list[Row]]:
-    """The fixes of [start, end) in chunks; the Unix time only if ``epoch`` (GPX's breaks):
-    on SQLite it costs a date parse per row."""
+def fixes_sql(
+    vessel_id: int, start: dt.datetime | None, end: dt.datetime | None, select: str
+) -> tuple[str, list[Any]]:
+    """SQL and parameters selecting ``select`` for each of the vessel's fixes in [start, end)
+    in time order; a missing bound leaves that side open. Shared by every export and by
+    bench.maps' same-bytes ceiling."""
     qn = connection.ops.quote_name
     t = qn("recorded_at")
-    numbers = [qn(c) for c in ("lat", "lon", "heading_deg", "speed_mps", "battery_v")]
-    time_columns = [iso_sql(t), epoch_sql(t) if epoch else "NULL"]
-    columns = [*time_columns, *numbers, f"CAST({qn('readings')} AS TEXT)"]
-    sql = (
-        f"SELECT {', '.join(columns)} FROM {qn(Fix._meta.db_table)}"
-        f" WHERE {qn('vessel_id')} = %s AND {t} >= %s AND {t} < %s ORDER BY {t}"
-    )
+    where, params = [f"{qn('vessel_id')} = %s"], [vessel_id]
+    if start is not None:
+        where.append(f"{t} >= %s")
+        params.append(db_time(start.timestamp()))
+    if end is not None:
+        where.append(f"{t} < %s")
+        params.append(db_time(end.timestamp()))
+    table = qn(Fix._meta.db_table)
+    return f"SELECT {select} FROM {table} WHERE {' AND '.join(where)} ORDER BY {t}", params
+
+
+def _chunks(sql: str, params: list[Any]) -> Iterator[list[tuple[Any, ...]]]:
     # chunked_cursor: a named (server-side) cursor on PostgreSQL, so rows arrive as read.
     with connection.chunked_cursor() as cursor:
-        cursor.execute(sql, [vessel_id, db_time(start.timestamp()), db_time(end.timestamp())])
+        cursor.execute(sql, params)
         while rows := cursor.fetchmany(EXPORT_CHUNK):
             yield rows
 
 
-def _lines(
-    vessel_id: int, start: dt.datetime, end: dt.datetime, line: Callable[..., str]
-) -> Iterator[list[str]]:
-    """Each fix of [start, end) as the text the SQL expression ``line(column)`` makes of it."""
+def _rows(vessel_id: int, start: dt.datetime, end: dt.datetime) -> Iterator[list[Row]]:
+    """The fixes of [start, end) in chunks, with their Unix time (GPX's breaks)."""
     qn = connection.ops.quote_name
     t = qn("recorded_at")
-    sql = (
-        f"SELECT {line(qn)} FROM {qn(Fix._meta.db_table)}"
-        f" WHERE {qn('vessel_id')} = %s AND {t} >= %s AND {t} < %s ORDER BY {t}"
-    )
-    with connection.chunked_cursor() as cursor:
-        cursor.execute(sql, [vessel_id, db_time(start.timestamp()), db_time(end.timestamp())])
-        while rows := cursor.fetchmany(EXPORT_CHUNK):
-            yield [row[0] for row in rows]
+    columns = [
+        iso_sql(t),
+        epoch_sql(t),
+        *(qn(c) for c in NUMBERS),
+        f"CAST({qn('readings')} AS TEXT)",
+    ]
+    yield from _chunks(*fixes_sql(vessel_id, start, end, ", ".join(columns)))
 
 
-def _text(qn: Callable[[str], str], column: str, empty: str) -> str:
+def _lines(
+    vessel_id: int, start: dt.datetime | None, end: dt.datetime | None, line: str
+) -> Iterator[list[str]]:
+    """Each fix of [start, end) as the text the SQL expression ``line`` makes of it."""
+    for rows in _chunks(*fixes_sql(vessel_id, start, end, line)):
+        yield [row[0] for row in rows]
+
+
+def _text(column: str, empty: str) -> str:
+    qn = connection.ops.quote_name
     return f"coalesce(CAST({qn(column)} AS TEXT), {_literal(empty)})"
 
 
@@ -87,41 +105,51 @@ def _concat(*parts: str) -> str:
     return " || ".join(parts)
 
 
-def _csv_line(qn: Callable[[str], str]) -> str:
-    # The readings cell is quoted JSON ('"' doubled): it never starts with a formula sign.
-    readings = f"replace({_text(qn, 'readings', '{}')}, {_literal(QUOTE)}, {_literal(QUOTE * 2)})"
+def _time() -> str:
+    return iso_sql(connection.ops.quote_name("recorded_at"))
+
+
+def csv_line_sql() -> str:
+    """SQL for one fix's CSV line, without its line end: the cells of ``COLUMNS``."""
+    # The readings cell is quoted JSON ('"' doubled): it starts with '{', never a formula
+    # sign (a spreadsheet runs a cell starting with = + - @ as a formula; names come from
+    # the boat).
+    readings = f"replace({_text('readings', '{}')}, {_literal(QUOTE)}, {_literal(QUOTE * 2)})"
     cells = [
-        iso_sql(qn("recorded_at")),
-        *(_text(qn, c, "") for c in ("lat", "lon", "heading_deg", "speed_mps", "battery_v")),
+        _time(),
+        *(_text(c, "") for c in NUMBERS),
         _concat(_literal(QUOTE), readings, _literal(QUOTE)),
     ]
     return _concat(*[part for cell in cells for part in (cell, _literal(","))][:-1])
 
 
-def _feature_line(qn: Callable[[str], str]) -> str:
+def _feature_line() -> str:
     """One Point Feature per fix, every value in its properties (GeoJSON text, by SQL)."""
     return _concat(
         _literal('{"type":"Feature","geometry":{"type":"Point","coordinates":['),
-        _text(qn, "lon", "null"),
+        _text("lon", "null"),
         _literal(","),
-        _text(qn, "lat", "null"),
+        _text("lat", "null"),
         _literal(']},"properties":{"time":"'),
-        iso_sql(qn("recorded_at")),
+        _time(),
         _literal('","heading_deg":'),
-        _text(qn, "heading_deg", "null"),
+        _text("heading_deg", "null"),
         _literal(',"speed_mps":'),
-        _text(qn, "speed_mps", "null"),
+        _text("speed_mps", "null"),
         _literal(',"battery_v":'),
-        _text(qn, "battery_v", "null"),
+        _text("battery_v", "null"),
         _literal(',"readings":'),
-        _text(qn, "readings", "{}"),
+        _text("readings", "{}"),
         _literal("}}"),
     )
 
 
-def csv_chunks(vessel_id: int, start: dt.datetime, end: dt.datetime) -> Iterator[str]:
+def csv_chunks(
+    vessel_id: int, start: dt.datetime | None = None, end: dt.datetime | None = None
+) -> Iterator[str]:
+    """The CSV of every endpoint that offers one: ``CSV_HEADER``, then a CRLF line per fix."""
     yield CSV_HEADER
-    for lines in _lines(vessel_id, start, end, _csv_line):
+    for lines in _lines(vessel_id, start, end, csv_line_sql()):
         yield "\r\n".join(lines) + "\r\n"
 
 
@@ -132,7 +160,7 @@ def geojson_chunks(
     yield '{"type":"FeatureCollection","properties":' + json.dumps(properties)
     yield ',"features":['
     separator = ""
-    for lines in _lines(vessel_id, start, end, _feature_line):
+    for lines in _lines(vessel_id, start, end, _feature_line()):
         yield separator + ",".join(lines)
         separator = ","
     yield "]}\n"
@@ -148,7 +176,7 @@ def gpx_chunks(
         f"<trk><name>{escape(name)}</name>\n"
     )
     previous: float | None = None
-    for rows in _rows(vessel_id, start, end, epoch=True):
+    for rows in _rows(vessel_id, start, end):
         parts = []
         for t, now, lat, lon, _h, s, b, _r in rows:
             if previous is None:
@@ -171,3 +199,10 @@ def _gpx_extensions(speed: float | None, battery: float | None) -> str:
         f"<s:battery_v>{battery!r}</s:battery_v>" if battery is not None else ""
     )
     return f"<extensions>{inner}</extensions>"
+
+
+def streamed(chunks: Iterable[str], *, fmt: str, filename: str) -> StreamingHttpResponse:
+    """An export as an attachment, sent as it is written."""
+    response = StreamingHttpResponse(chunks, content_type=FORMATS[fmt])
+    response["Content-Disposition"] = f'attachment; filename="{filename}"'
+    return response

@@ -267,7 +267,5 @@ class VesselTrackExportView(VesselReadView):
             chunks = export.gpx_chunks(
                 vessel.pk, start, end, name=vessel.name, gap_s=gap_seconds(vessel)
             )
-        response = StreamingHttpResponse(chunks, content_type=export.FORMATS[fmt])
         span = f"{start:%Y%m%dT%H%M%SZ}-{end:%Y%m%dT%H%M%SZ}"
-        response["Content-Disposition"] = f'attachment; filename="{slug}-{span}.{fmt}"'
-        return response
+        return export.streamed(chunks, fmt=fmt, filename=f"{slug}-{span}.{fmt}")

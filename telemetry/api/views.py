@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import csv
 import datetime as dt
-from collections.abc import Iterator
 from typing import Any
 
-from django.http import StreamingHttpResponse
 from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import OpenApiParameter, OpenApiResponse, extend_schema
 from rest_framework import serializers
@@ -16,13 +13,12 @@ from rest_framework.generics import ListAPIView
 from rest_framework.pagination import CursorPagination
 from rest_framework.request import Request
 
+from telemetry.api import export
 from telemetry.models import Fix
 from telemetry.parsing import parse_time
 from telemetry.selectors import fixes_in_range
 from vessels.permissions import CanViewVessels, ModelPermissions
 from vessels.selectors import vessel_by_slug
-
-CSV_COLUMNS = ["recorded_at", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings"]
 
 
 class FixSerializer(serializers.ModelSerializer):
@@ -65,37 +61,6 @@ def time_param(request: Request, name: str) -> dt.datetime | None:
         raise ValidationError({name: [f"{raw!r} {exc}"]}) from None
 
 
-class _Echo:
-    def write(self, value: str) -> str:
-        return value
-
-
-# A spreadsheet runs a cell starting with these as a formula (OWASP "CSV injection"); the
-# readings cell is text whose names come from the boat.
-_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
-
-
-def _no_formula(text: str) -> str:
-    return "'" + text if text.startswith(_FORMULA_START) else text
-
-
-def _csv_rows(fixes: Any) -> Iterator[str]:
-    writer = csv.writer(_Echo())
-    yield writer.writerow(CSV_COLUMNS)
-    for fix in fixes.iterator(chunk_size=2000):
-        yield writer.writerow(
-            [
-                fix.recorded_at.isoformat(),
-                fix.lat,
-                fix.lon,
-                fix.heading_deg,
-                fix.speed_mps,
-                fix.battery_v,
-                _no_formula(";".join(f"{k}={v}" for k, v in sorted(fix.readings.items()))),
-            ]
-        )
-
-
 @extend_schema(
     parameters=[
         OpenApiParameter("from", str, description="ISO 8601 or Unix seconds (inclusive)"),
@@ -105,7 +70,8 @@ def _csv_rows(fixes: Any) -> Iterator[str]:
     responses={
         (200, "application/json"): FixSerializer(many=True),
         (200, "text/csv"): OpenApiResponse(
-            OpenApiTypes.STR, description=f"`?format=csv`: columns {', '.join(CSV_COLUMNS)}"
+            OpenApiTypes.STR,
+            description=f"`?format=csv`: the export's CSV, columns {export.CSV_HEADER.strip()}",
         ),
     },
     tags=["operator"],
@@ -127,9 +93,9 @@ class VesselFixesView(ListAPIView):
 
     def list(self, request: Request, *args: Any, **kwargs: Any) -> Any:
         if request.query_params.get("format") == "csv":
-            fixes = self.get_queryset().order_by("recorded_at")
-            response = StreamingHttpResponse(_csv_rows(fixes), content_type="text/csv")
+            # The export's writer: the same file as /track/export/?format=csv for a range.
             slug = self.kwargs["slug"]
-            response["Content-Disposition"] = f'attachment; filename="{slug}-fixes.csv"'
-            return response
+            start, end = time_param(request, "from"), time_param(request, "to")
+            chunks = export.csv_chunks(vessel_by_slug(slug).pk, start, end)
+            return export.streamed(chunks, fmt="csv", filename=f"{slug}-fixes.csv")
         return super().list(request, *args, **kwargs)

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import csv
+import io
+import json
+from typing import Any
+
 import pytest
 from rest_framework.test import APIClient
 
@@ -72,35 +77,75 @@ def test_only_the_named_vessels_fixes_are_listed(
     assert operator.get(fixes_url("nope")).status_code == 404
 
 
-def test_it_exports_fixes_as_csv(operator: APIClient, track: list) -> None:
+def csv_body(response: Any) -> bytes:
+    assert response.status_code == 200
+    assert response["Content-Type"] == "text/csv; charset=utf-8"
+    return b"".join(response.streaming_content)
+
+
+def test_it_exports_fixes_as_the_track_exports_csv(operator: APIClient, track: list) -> None:
     response = operator.get(
         fixes_url() + "?format=csv&from=2026-11-23T08:07:00Z&to=2026-11-23T08:09:00Z"
     )
-    assert response.status_code == 200
-    assert response["Content-Type"] == "text/csv"
     assert response["Content-Disposition"] == 'attachment; filename="spab-fixes.csv"'
-    lines = b"".join(response.streaming_content).decode().splitlines()
-    assert lines == [
-        "recorded_at,lat,lon,heading_deg,speed_mps,battery_v,readings",
-        "2026-11-23T08:07:00+00:00,-31.93,115.7,,,,s=35.5;t=7.0",
-        "2026-11-23T08:08:00+00:00,-31.92,115.7,,,,s=35.5;t=8.0",
+    text = csv_body(response).decode()
+    lines = text.split("\r\n")
+    assert lines[0] == "time,lat,lon,heading_deg,speed_mps,battery_v,readings"
+    assert lines[1].startswith("2026-11-23T08:07:00Z,-31.93,115.7,,,,")
+    assert lines[2].startswith("2026-11-23T08:08:00Z,-31.92,115.7,,,,")
+    assert lines[3:] == [""]
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert [json.loads(r["readings"]) for r in rows] == [
+        {"t": 7.0, "s": 35.5},
+        {"t": 8.0, "s": 35.5},
     ]
 
 
+@pytest.mark.parametrize(
+    "query",
+    [
+        "from=2026-11-23T08:02:00Z&to=2026-11-23T08:07:30Z",
+        f"from={BASE.timestamp():.0f}&to={BASE.timestamp() + 600:.0f}",
+        "from=2026-11-23T09:00:00Z&to=2026-11-23T10:00:00Z",
+    ],
+)
+def test_both_csv_exports_give_the_same_file_for_the_same_range(
+    operator: APIClient, track: list, query: str
+) -> None:
+    fixes = csv_body(operator.get(f"{fixes_url()}?format=csv&{query}"))
+    exported = csv_body(operator.get(f"/api/v1/vessels/spab/track/export/?format=csv&{query}"))
+    assert fixes == exported
+
+
+def test_the_fixes_csv_range_may_be_open(operator: APIClient, track: list) -> None:
+    whole = csv_body(operator.get(fixes_url() + "?format=csv")).decode()
+    assert [r["time"] for r in csv.DictReader(io.StringIO(whole))] == [iso(t) for t in track]
+    since = csv_body(operator.get(fixes_url() + "?format=csv&from=2026-11-23T08:08:00Z"))
+    assert [r["time"][11:16] for r in csv.DictReader(io.StringIO(since.decode()))] == [
+        "08:08",
+        "08:09",
+    ]
+
+
+@pytest.mark.parametrize(
+    "path", ["fixes/?format=csv", "track/export/?format=csv&from=2026-11-23T00:00:00Z"]
+)
 @pytest.mark.parametrize("name", ['=HYPERLINK("http://x")', "+1", "@SUM(A1)", "-x"])
 def test_the_csv_export_never_starts_a_cell_with_a_formula(
-    operator: APIClient, vessel_a: Vessel, name: str
+    operator: APIClient, vessel_a: Vessel, name: str, path: str
 ) -> None:
     # Reading names come from the boat: one must not become a formula in the operator's
-    # spreadsheet (CSV injection).
+    # spreadsheet (CSV injection). Numbers may start with '-'; text cells never may.
     fix_ingest(
         vessel=vessel_a,
-        records=[{"time": "2026-11-23T08:00:00Z", "lat": 1.0, "lon": 2.0, "readings": {name: 1}}],
+        records=[{"time": "2026-11-23T08:00:00Z", "lat": -1.0, "lon": 2.0, "readings": {name: 1}}],
     )
-    response = operator.get(fixes_url() + "?format=csv")
-    cells = b"".join(response.streaming_content).decode().splitlines()[1].split(",", 6)
-    assert cells[6].strip('"').startswith("'")
-    assert cells[1:3] == ["1.0", "2.0"]
+    body = csv_body(operator.get(f"/api/v1/vessels/spab/{path}")).decode()
+    [row] = list(csv.reader(io.StringIO(body)))[1:]
+    assert [float(cell) for cell in row[1:3]] == [-1.0, 2.0]  # as the database writes them
+    assert json.loads(row[6]) == {name: 1.0}
+    for cell in (row[0], row[6]):
+        assert not cell.startswith(("=", "+", "-", "@", "\t", "\r"))
 
 
 # --- commands ---
