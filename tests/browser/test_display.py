@@ -86,6 +86,7 @@ def test_the_fleet_map_panel_names_the_mode_and_the_armed_state(
             )
         ],
     )
+    vessel_a.refresh_from_db()  # the move_to is measured from the fix just ingested
     command_enqueue(vessel=vessel_a, kind="move_to", params={"lat": -32.03, "lon": 115.33})
     log_in(browser, live_server, operator_user)
     wait_for(

@@ -415,6 +415,7 @@ def test_a_command_the_boat_replaced_shows_superseded_in_grey_not_failed_red(
 ) -> None:
     vessel = simulated_boat
     wait_until(lambda: Vessel.objects.get(pk=vessel.pk).last_fix, 30, "a first fix")
+    vessel.refresh_from_db()  # the move_to is measured from that fix
     far = command_enqueue(vessel=vessel, kind="move_to",
                           params={"lat": HOME[0] + 0.005, "lon": HOME[1]})  # fmt: skip
     wait_until(lambda: status_of(far) == "acknowledged", 30, "the boat to set off")
