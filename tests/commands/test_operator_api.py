@@ -75,6 +75,7 @@ def test_a_created_command_may_carry_its_own_expiry(operator: APIClient, vessel_
         ("spab", {"kind": "move_to", "params": [1, 2]}, "params", "params must be an object"),
         ("glider", {"kind": "fhead", "params": {"bearing": 360}}, "params", "bearing must be"),
         ("spab", {"params": {}}, "kind", "This field is required."),
+        ("spab", {"kind": 0, "params": {}}, "kind", "Not a valid string."),
         ("spab", {"kind": "hold", "expires_at": "soon"}, "expires_at", "Datetime has wrong"),
         (
             "spab",
