@@ -8,8 +8,8 @@ matches its schema; invalid input must be refused and valid input accepted.
 In process, through Django's WSGI handler (no server, no network) and in the test's own
 transaction, so it runs on whichever database the suite runs on: the boat operations as boat A
 (its vessel key), the operator operations as an operator with every right (a personal token).
-The valid requests name objects that exist (boat A's slug, its queued command, a mission),
-so the operations are reached past their 404.
+The valid requests name objects that exist (boat A's slug, its command, a mission), so the
+operations are reached past their 404.
 
 SHORESIDE_SCHEMATHESIS_EXAMPLES sets the random examples per operation (default 20, about a
 minute per database); raise it for a deeper local run.
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -33,6 +34,7 @@ from hypothesis import HealthCheck, settings
 from schemathesis.specs.openapi.checks import positive_data_acceptance
 
 from commands.models import Command
+from commands.services import command_claim_open
 from operators.services import operator_token_issue
 from tests.conftest import make_user
 from vessels.models import Mission, Vessel
@@ -52,7 +54,7 @@ OPERATOR_PERMS = [
 ]
 
 
-def load_schema() -> dict[str, str]:
+def load_schema() -> dict[str, Any]:
     """The schema as /api/v1/schema/ serves it (the same generator and renderer)."""
     document = SchemaGenerator().get_schema(request=None, public=True)
     return json.loads(OpenApiJsonRenderer().render(document))
@@ -86,6 +88,8 @@ class Credentials:
 
 @pytest.fixture
 def existing(vessel_a: Vessel, command_a: Command, reported: Vessel) -> dict[str, str]:
+    """Boat A with a fix, its command handed over by a poll (so an ack can land), a mission."""
+    command_claim_open(vessel=vessel_a)
     mission = mission_write(
         mission=Mission(),
         fields={"name": "Harbour loop", "vessel": vessel_a},
@@ -95,7 +99,7 @@ def existing(vessel_a: Vessel, command_a: Command, reported: Vessel) -> dict[str
 
 
 @pytest.fixture
-def in_test_transaction() -> dict[str, str]:
+def in_test_transaction() -> Iterator[None]:
     """Keep Django's handler from closing the test's connection around each request (as its
     test client does): the requests must see, and write into, the test's transaction."""
     request_started.disconnect(close_old_connections)
@@ -156,6 +160,7 @@ def follow_the_rules(case: Any, existing: dict[str, str]) -> None:
         case.body = {**case.body, "vessel": existing["slug"]}
 
 
+@pytest.mark.slow
 @pytest.mark.django_db
 @SCHEMA.parametrize()
 @settings(
