@@ -139,7 +139,9 @@ def test_a_value_of_another_json_type_than_the_schema_says_is_refused(
     assert Mission.objects.count() == 0
 
 
-def test_the_schema_states_the_home_rule_and_the_plan_export_type(planner: APIClient) -> None:
+def test_the_schema_states_the_home_rule_string_rules_and_the_plan_export_type(
+    planner: APIClient,
+) -> None:
     schema = planner.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
     paths = schema["paths"]
 
@@ -153,6 +155,9 @@ def test_the_schema_states_the_home_rule_and_the_plan_export_type(planner: APICl
         assert not valid({"name": "x", "home_lat": -32.0}, component)
         assert not valid({"name": "x", "home_lon": 115.8}, component)
     assert not valid({"name": 0}, "MissionRequest")
+    assert not valid({"name": "a\x00b"}, "MissionRequest")  # refused as the API refuses them
+    assert not valid({"name": " \t"}, "MissionRequest")
+    assert valid({"name": "x", "notes": ""}, "MissionRequest")
     export = paths["/api/v1/missions/{id}/export/"]["get"]["responses"]["200"]["content"]
     assert export["application/json"]["schema"]["type"] == "object"  # a .plan is JSON
     assert export["text/plain"]["schema"]["type"] == "string"
