@@ -43,6 +43,7 @@ from vessels.services import mission_write
 EXAMPLES = int(os.environ.get("SHORESIDE_SCHEMATHESIS_EXAMPLES", "20"))
 OPERATOR_PERMS = [
     "vessels.view_vessel",
+    "vessels.change_vessel",
     "vessels.view_mission",
     "vessels.add_mission",
     "vessels.change_mission",
@@ -129,8 +130,9 @@ def credentials(
 
 # Rules OpenAPI 3.0 cannot state, so the valid requests follow them here: they name objects
 # that exist; a time range lies within the plausible window (from 2018 to ten years ahead)
-# with `from` before `to`; the mission starts each request without a home, so a PATCH's home
-# rule (checked on the mission as it leaves it) is the body's own.
+# with `from` before `to`; a mission's `updated_at` sent back is the version it has now; the
+# mission starts each request without a home, so a PATCH's home rule (checked on the mission
+# as it leaves it) is the body's own.
 # Where validity depends on more than the request, a valid request may still be refused
 # with a 400 naming why: a command's kind and params against the catalog for this vessel's
 # kind, and an imported file's content.
@@ -158,6 +160,9 @@ def follow_the_rules(case: Any, existing: dict[str, str]) -> None:
         case.query = query
     if isinstance(case.body, dict) and isinstance(case.body.get("vessel"), str):
         case.body = {**case.body, "vessel": existing["slug"]}
+    if isinstance(case.body, dict) and "updated_at" in case.body:
+        mission = Mission.objects.get(pk=existing["id"])
+        case.body = {**case.body, "updated_at": mission.updated_at.isoformat()}
 
 
 @pytest.mark.slow
