@@ -326,6 +326,9 @@ SPECTACULAR_SETTINGS = {
     "DESCRIPTION": "Boat API (vessel keys) and operator API (session or token).",
     "VERSION": "1",
     "SERVE_INCLUDE_SCHEMA": False,
+    # Request bodies get their own components: what a client must send (non-blank strings,
+    # files as binary, no read-only fields) differs from what it gets back.
+    "COMPONENT_SPLIT_REQUEST": True,
     # Served from static files: the site must work at sea without internet.
     "SWAGGER_UI_DIST": "SIDECAR",
     "SWAGGER_UI_FAVICON_HREF": "SIDECAR",

@@ -2,10 +2,11 @@ from __future__ import annotations
 
 from django.contrib import admin
 from django.urls import include, path
-from drf_spectacular.views import SpectacularAPIView, SpectacularSwaggerView
+from drf_spectacular.views import SpectacularSwaggerView
 from rest_framework.permissions import IsAuthenticated
 
 from commands.api import urls as command_urls
+from fleet.schema import SchemaView
 from sms.api import urls as sms_urls
 from telemetry.api import urls as telemetry_urls
 
@@ -17,9 +18,7 @@ api_v1 = [
     path("", include(telemetry_urls.urlpatterns)),
     path("", include(command_urls.urlpatterns)),
     path("", include(sms_urls.urlpatterns)),
-    path(
-        "schema/", SpectacularAPIView.as_view(permission_classes=[IsAuthenticated]), name="schema"
-    ),
+    path("schema/", SchemaView.as_view(permission_classes=[IsAuthenticated]), name="schema"),
     path(
         "docs/",
         SpectacularSwaggerView.as_view(url_name="schema", permission_classes=[IsAuthenticated]),

@@ -24,6 +24,7 @@ from commands.lifecycle import Status
 from commands.models import Command, Source
 from commands.services import command_ack, command_claim_open, command_record_reported
 from vessels.api.boat import AwareDateTimeField, BoatView
+from vessels.api.fields import StrictCharField
 from vessels.models import Vessel
 from vessels.text import json_unstorable, unstorable
 
@@ -105,7 +106,8 @@ class AckView(BoatView):
             "Ack",
             {
                 "status": serializers.ChoiceField(["acknowledged", "done", "failed", "superseded"]),
-                "detail": serializers.CharField(required=False),
+                # A NUL is refused (the one text rule), so the schema says so: StrictCharField.
+                "detail": StrictCharField(required=False, allow_blank=True),
             },
         ),
         responses={200: OpenApiTypes.OBJECT},

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from drf_spectacular.utils import extend_schema
+from drf_spectacular.utils import extend_schema, extend_schema_field
 from rest_framework import generics, serializers, status
 from rest_framework.pagination import CursorPagination
 from rest_framework.request import Request
@@ -14,6 +14,7 @@ from rest_framework.views import APIView
 from commands.models import Command, CommandEvent, Source
 from commands.selectors import command_by_uid
 from commands.services import command_cancel, command_enqueue
+from vessels.api.fields import StrictCharField
 from vessels.permissions import CanViewVessels, ChangeModelPermissions, ModelPermissions
 from vessels.selectors import vessel_by_slug
 
@@ -54,11 +55,16 @@ class CommandSerializer(serializers.ModelSerializer):
 API_SOURCES = (Source.API, Source.MAP)
 
 
+@extend_schema_field({"type": "object", "description": "the kind's parameters (the catalog)"})
+class ParamsField(serializers.JSONField):
+    """Any JSON, for the catalog to judge; the schema says what it must be, an object."""
+
+
 class CommandCreateSerializer(serializers.Serializer):
     """Shape only; the catalog (via command_enqueue) decides what is valid."""
 
-    kind = serializers.CharField()
-    params = serializers.JSONField(required=False, default=dict)
+    kind = StrictCharField()
+    params = ParamsField(required=False, default=dict)
     expires_at = serializers.DateTimeField(required=False, allow_null=True)
     source = serializers.ChoiceField(
         [(s.value, s.label) for s in API_SOURCES],

@@ -121,9 +121,8 @@ def _json_response(body: Any, content_type: str = "application/json") -> HttpRes
         *RANGE_PARAMETERS,
         OpenApiParameter(
             "max_points",
-            int,
-            description=f"at most this many points ({MIN_POINTS}–{TRACK_MAX_POINTS}, "
-            f"default {TRACK_DEFAULT_POINTS})",
+            {"type": "integer", "minimum": MIN_POINTS, "maximum": TRACK_MAX_POINTS},
+            description=f"at most this many points (default {TRACK_DEFAULT_POINTS})",
         ),
     ],
     responses={(200, "application/geo+json"): TrackSerializer},
@@ -156,7 +155,12 @@ class VesselTrackView(VesselReadView):
 
 @extend_schema(
     parameters=[
-        OpenApiParameter("time", str, required=True, description="ISO 8601 or Unix seconds")
+        OpenApiParameter(
+            "time",
+            {"type": "string", "minLength": 1},
+            required=True,
+            description="ISO 8601 or Unix seconds",
+        )
     ],
     responses={200: FixSerializer},
     tags=["operator"],
@@ -186,9 +190,8 @@ def channel_meta(keys: list[str]) -> dict[str, tuple[str, str]]:
         *RANGE_PARAMETERS,
         OpenApiParameter(
             "buckets",
-            int,
-            description=f"at most this many buckets (1–{SERIES_MAX_BUCKETS}, "
-            f"default {SERIES_DEFAULT_BUCKETS})",
+            {"type": "integer", "minimum": 1, "maximum": SERIES_MAX_BUCKETS},
+            description=f"at most this many buckets (default {SERIES_DEFAULT_BUCKETS})",
         ),
     ],
     responses={200: SeriesSerializer},

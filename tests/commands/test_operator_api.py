@@ -101,6 +101,7 @@ def test_a_created_command_may_carry_its_own_expiry(operator: APIClient, vessel_
         ("spab", {"kind": "hold", "source": "system"}, "source", "must be api or map"),
         ("spab", {"kind": "hold", "source": ["map"]}, "source", "must be api or map"),
         ("spab", {"params": {}}, "kind", "This field is required."),
+        ("spab", {"kind": 0, "params": {}}, "kind", "Not a valid string."),
         ("spab", {"kind": "hold", "expires_at": "soon"}, "expires_at", "Datetime has wrong"),
         (
             "spab",

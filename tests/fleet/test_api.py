@@ -244,10 +244,10 @@ def test_every_operation_documents_the_errors_it_can_answer(session_operator: AP
     schema = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
     error = {"$ref": "#/components/schemas/Error"}
     expected = {
-        ("post", "/api/v1/boat/telemetry/"): {"400", "401", "403", "413", "415", "429", "503"},
-        ("get", "/api/v1/boat/commands/"): {"304", "401", "403", "503"},
-        ("post", "/api/v1/boat/commands/{uid}/ack/"): {"400", "404", "409", "415"},
-        ("get", "/api/v1/vessels/{slug}/fixes/"): {"400", "401", "403", "404"},
+        ("post", "/api/v1/boat/telemetry/"): {"400", "401", "413", "415", "429", "503"},
+        ("get", "/api/v1/boat/commands/"): {"304", "401", "503"},
+        ("post", "/api/v1/boat/commands/{uid}/ack/"): {"400", "401", "404", "409", "415"},
+        ("get", "/api/v1/vessels/{slug}/fixes/"): {"400", "403", "404"},
         ("post", "/api/v1/vessels/{slug}/commands/"): {"400", "403", "404", "415"},
         ("post", "/api/v1/commands/{uid}/cancel/"): {"403", "404", "409"},
     }
@@ -259,14 +259,63 @@ def test_every_operation_documents_the_errors_it_can_answer(session_operator: AP
     assert set(schema["components"]["schemas"]["Error"]["required"]) == {"error", "detail"}
 
 
+def test_each_operation_documents_the_auth_failure_it_answers(
+    session_operator: APIClient, anonymous: APIClient, boat_a: APIClient, command_a: Command
+) -> None:
+    """A boat operation answers 401 (its key scheme names a challenge), an operator operation
+    403 (the session scheme comes first and names none): each documents only its own."""
+    schema = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
+    for path, operations in schema["paths"].items():
+        for method, operation in operations.items():
+            boat = path.startswith("/api/v1/boat/")
+            codes = set(operation["responses"])
+            assert ("401" in codes, "403" in codes) == (boat, not boat), (method, path)
+    assert anonymous.get("/api/v1/boat/commands/").status_code == 401
+    assert boat_a.get("/api/v1/fleet/").status_code == 403
+    assert anonymous.get("/api/v1/vessels/").status_code == 403
+    bad_token = APIClient()
+    bad_token.credentials(HTTP_AUTHORIZATION="Token sst_" + "0" * 64)
+    assert bad_token.get("/api/v1/vessels/").status_code == 403
+    assert bad_token.get("/api/v1/boat/commands/").status_code == 401
+
+
+def test_the_schema_endpoint_answers_its_own_errors_in_json(anonymous: APIClient) -> None:
+    response = anonymous.get("/api/v1/schema/")
+    assert response.status_code == 403
+    assert response["Content-Type"] == "application/json"
+    assert response.json()["error"] == "not_authenticated"
+
+
+def test_the_schema_gives_the_map_reads_their_ranges(session_operator: APIClient) -> None:
+    paths = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()["paths"]
+
+    def parameter(path: str, name: str) -> dict[str, Any]:
+        found = [p for p in paths[path]["get"]["parameters"] if p["name"] == name]
+        return found[0]
+
+    track = parameter("/api/v1/vessels/{slug}/track/", "max_points")["schema"]
+    assert (track["minimum"], track["maximum"]) == (6, 10000)
+    buckets = parameter("/api/v1/vessels/{slug}/series/", "buckets")["schema"]
+    assert (buckets["minimum"], buckets["maximum"]) == (1, 5000)
+    time = parameter("/api/v1/vessels/{slug}/fixes/nearest/", "time")
+    assert time["required"] is True
+    assert time["schema"]["minLength"] == 1
+
+
 def test_the_schema_types_the_telemetry_body_and_the_csv_export(
     session_operator: APIClient,
 ) -> None:
     schema = session_operator.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
     components = schema["components"]["schemas"]
     body = schema["paths"]["/api/v1/boat/telemetry/"]["post"]["requestBody"]
-    batch = body["content"]["application/json"]["schema"]["$ref"].rsplit("/", 1)[1]
-    fix = components[batch]["properties"]["fixes"]["items"]["$ref"].rsplit("/", 1)[1]
+    batch_ref, bare_list = body["content"]["application/json"]["schema"]["anyOf"]
+    fixes = components[batch_ref["$ref"].rsplit("/", 1)[1]]["properties"]["fixes"]
+    assert bare_list["type"] == "array"
+    assert fixes["maxItems"] == bare_list["maxItems"] == 5000
+    # Each entry is checked alone (a bad one is listed in `rejected`), so any entry is taken.
+    fix_ref, other = fixes["items"]["anyOf"]
+    fix = fix_ref["$ref"].rsplit("/", 1)[1]
+    assert "type" not in other
     assert {"time", "lat", "lon", "readings"} <= set(components[fix]["properties"])
     assert {"time", "lat", "lon"} <= set(components[fix]["required"])
     fixes = schema["paths"]["/api/v1/vessels/{slug}/fixes/"]["get"]["responses"]["200"]

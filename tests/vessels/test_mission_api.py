@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import jsonschema
 import pytest
 from django.contrib.auth.models import User
 from django.core.files.uploadedfile import SimpleUploadedFile
@@ -118,6 +119,48 @@ def test_bad_items_and_half_a_home_are_refused(planner: APIClient) -> None:
     half = planner.post(MISSIONS, {"name": "x", "home_lat": -32}, format="json")
     assert half.status_code == 400 and "home_lat" in half.json()["detail"]
     assert Mission.objects.count() == 0
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({"name": 0}, "name"),
+        ({"name": "x", "notes": 5}, "notes"),
+        ({"name": "x", "home_lat": "-32", "home_lon": 115.8}, "home_lat"),
+        ({"name": "x", "items": [{"lat": 0, "lon": 0, "hold_s": True}]}, "items"),
+    ],
+)
+def test_a_value_of_another_json_type_than_the_schema_says_is_refused(
+    planner: APIClient, body: dict[str, Any], field: str
+) -> None:
+    response = planner.post(MISSIONS, body, format="json")
+    assert response.status_code == 400
+    assert field in response.json()["detail"]
+    assert Mission.objects.count() == 0
+
+
+def test_the_schema_states_the_home_rule_string_rules_and_the_plan_export_type(
+    planner: APIClient,
+) -> None:
+    schema = planner.get("/api/v1/schema/", HTTP_ACCEPT="application/json").json()
+    paths = schema["paths"]
+
+    def valid(body: dict[str, Any], component: str) -> bool:
+        root = {**schema, "$ref": f"#/components/schemas/{component}"}
+        return jsonschema.Draft7Validator(root).is_valid(body)
+
+    for component in ("MissionRequest", "PatchedMissionRequest"):
+        assert valid({"name": "x"}, component)
+        assert valid({"name": "x", "home_lat": -32.0, "home_lon": 115.8}, component)
+        assert not valid({"name": "x", "home_lat": -32.0}, component)
+        assert not valid({"name": "x", "home_lon": 115.8}, component)
+    assert not valid({"name": 0}, "MissionRequest")
+    assert not valid({"name": "a\x00b"}, "MissionRequest")  # refused as the API refuses them
+    assert not valid({"name": " \t"}, "MissionRequest")
+    assert valid({"name": "x", "notes": ""}, "MissionRequest")
+    export = paths["/api/v1/missions/{id}/export/"]["get"]["responses"]["200"]["content"]
+    assert export["application/json"]["schema"]["type"] == "object"  # a .plan is JSON
+    assert export["text/plain"]["schema"]["type"] == "string"
 
 
 def test_a_patch_is_checked_against_the_home_half_it_leaves(

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from django.db import models
 from django.http import HttpResponse
+from drf_spectacular.extensions import OpenApiSerializerExtension
 from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import (
     OpenApiParameter,
@@ -26,6 +28,7 @@ from rest_framework.response import Response
 
 from vessels import missionfiles
 from vessels.api.boat import JsonOnly
+from vessels.api.fields import StrictCharField, StrictFloatField
 from vessels.api.parsers import JSONParser
 from vessels.errors import MissionFileError
 from vessels.missions import MISSION_MAX_ITEMS
@@ -41,8 +44,18 @@ from vessels.services import (
     mission_write,
 )
 
+# The model's fields as the JSON types the schema gives them: no "0" for 0, no 1.0 for true.
+STRICT_FIELDS = {
+    **serializers.ModelSerializer.serializer_field_mapping,
+    models.CharField: StrictCharField,
+    models.TextField: StrictCharField,
+    models.FloatField: StrictFloatField,
+}
+
 
 class MissionItemSerializer(serializers.ModelSerializer):
+    serializer_field_mapping = STRICT_FIELDS
+
     class Meta:
         model = MissionItem
         fields = ["seq", "lat", "lon", "hold_s", "radius_m", "speed_mps"]
@@ -82,6 +95,7 @@ class VesselSlugField(serializers.SlugRelatedField):
 
 
 class MissionSerializer(serializers.ModelSerializer):
+    serializer_field_mapping = STRICT_FIELDS
     vessel = VesselSlugField(
         slug_field="slug", allow_null=True, required=False, help_text="null: a template"
     )
@@ -145,13 +159,38 @@ class MissionSerializer(serializers.ModelSerializer):
         return Mission.objects.prefetch_related("items").get(pk=mission.pk)
 
 
+# A home is both coordinates or neither (Mission.clean): the rule of a whole mission, so of
+# a POST or PUT body; a PATCH is checked on the mission as the update leaves it.
+_HAS_HOME_LAT = {"required": ["home_lat"], "properties": {"home_lat": {"type": "number"}}}
+_HAS_HOME_LON = {"required": ["home_lon"], "properties": {"home_lon": {"type": "number"}}}
+HOME_BOTH_OR_NEITHER = [
+    {"description": "a home: both coordinates", "allOf": [_HAS_HOME_LAT, _HAS_HOME_LON]},
+    {
+        "description": "no home: neither coordinate (both absent or null)",
+        "not": {"anyOf": [_HAS_HOME_LAT, _HAS_HOME_LON]},
+    },
+]
+
+
+class MissionSchema(OpenApiSerializerExtension):
+    """The mission's request schema with the home rule, which no single field can state."""
+
+    target_class = MissionSerializer
+
+    def map_serializer(self, auto_schema: Any, direction: str) -> dict[str, Any]:
+        schema = auto_schema._map_serializer(self.target, direction, bypass_extensions=True)
+        if direction == "request":
+            schema["anyOf"] = HOME_BOTH_OR_NEITHER
+        return schema
+
+
 class MissionImportSerializer(serializers.Serializer):
     file = serializers.FileField(help_text="a .plan, .waypoints or GeoJSON file")
     format = serializers.ChoiceField(
         missionfiles.FORMATS, required=False, help_text="default: from the file's name and content"
     )
     vessel = VesselSlugField(slug_field="slug", required=False, allow_null=True)
-    name = serializers.CharField(max_length=100, required=False, allow_blank=True)
+    name = StrictCharField(max_length=100, required=False, allow_blank=True)
     skip_unsupported = serializers.BooleanField(
         required=False,
         default=False,
@@ -176,6 +215,12 @@ _EXPORT_TYPES = {
     "waypoints": "text/plain",
     "geojson": "application/geo+json",
 }
+
+# One description for the three content types (OpenAPI has one per status code).
+_EXPORT_DESCRIPTION = (
+    "a file by `format`: `plan` a QGroundControl .plan (a JSON object), `waypoints` a Mission "
+    "Planner .waypoints (text), `geojson` a FeatureCollection"
+)
 
 
 class UploadTooLarge(exceptions.APIException):
@@ -247,8 +292,15 @@ class MissionViewSet(viewsets.ModelViewSet):
             OpenApiParameter("format", str, enum=list(missionfiles.FORMATS), required=True)
         ],
         responses={
-            (200, content_type): OpenApiResponse(OpenApiTypes.STR, description=f"a .{fmt} file")
-            for fmt, content_type in _EXPORT_TYPES.items()
+            (200, _EXPORT_TYPES["plan"]): OpenApiResponse(
+                OpenApiTypes.OBJECT, description=_EXPORT_DESCRIPTION
+            ),
+            (200, _EXPORT_TYPES["waypoints"]): OpenApiResponse(
+                OpenApiTypes.STR, description=_EXPORT_DESCRIPTION
+            ),
+            (200, _EXPORT_TYPES["geojson"]): OpenApiResponse(
+                OpenApiTypes.OBJECT, description=_EXPORT_DESCRIPTION
+            ),
         },
     )
     @action(detail=True, methods=["get"], content_negotiation_class=JsonOnly)

@@ -3,6 +3,7 @@ from __future__ import annotations
 from typing import Any
 
 from django.utils import timezone
+from drf_spectacular.extensions import OpenApiSerializerExtension
 from rest_framework import serializers
 
 from vessels.models import Vessel
@@ -49,6 +50,17 @@ class VesselUpdateSerializer(serializers.ModelSerializer):
                 {unknown[0]: [f"cannot be changed here (only {', '.join(self.Meta.fields)})"]}
             )
         return attrs
+
+
+class VesselUpdateSchema(OpenApiSerializerExtension):
+    """The PATCH body's schema closes its object, as validate() does: any other field is a
+    400, so a client (or schemathesis) reading the schema knows not to send one."""
+
+    target_class = VesselUpdateSerializer
+
+    def map_serializer(self, auto_schema: Any, direction: str) -> dict[str, Any]:
+        schema = auto_schema._map_serializer(self.target, direction, bypass_extensions=True)
+        return {**schema, "additionalProperties": False}
 
 
 class _LastFixSerializer(serializers.Serializer):

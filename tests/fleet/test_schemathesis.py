@@ -1,0 +1,188 @@
+"""The OpenAPI schema against the API that serves it (schemathesis).
+
+For every operation, schemathesis sends requests built from the schema: boundary and missing
+values first (its coverage phase), then random valid and deliberately invalid ones. Each answer
+must be no 5xx, a status the schema documents, with the documented content type and a body that
+matches its schema; invalid input must be refused and valid input accepted.
+
+In process, through Django's WSGI handler (no server, no network) and in the test's own
+transaction, so it runs on whichever database the suite runs on: the boat operations as boat A
+(its vessel key), the operator operations as an operator with every right (a personal token).
+The valid requests name objects that exist (boat A's slug, its command, a mission), so the
+operations are reached past their 404.
+
+SHORESIDE_SCHEMATHESIS_EXAMPLES sets the random examples per operation (default 20, about a
+minute per database); raise it for a deeper local run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+import schemathesis
+from django.contrib.auth.models import User
+from django.core.handlers.wsgi import WSGIHandler
+from django.core.signals import request_finished, request_started
+from django.db import close_old_connections
+from drf_spectacular.generators import SchemaGenerator
+from drf_spectacular.renderers import OpenApiJsonRenderer
+from hypothesis import HealthCheck, settings
+from schemathesis.specs.openapi.checks import positive_data_acceptance
+
+from commands.models import Command
+from commands.services import command_claim_open
+from operators.services import operator_token_issue
+from tests.conftest import make_user
+from vessels.models import Mission, Vessel
+from vessels.services import mission_write
+
+EXAMPLES = int(os.environ.get("SHORESIDE_SCHEMATHESIS_EXAMPLES", "20"))
+OPERATOR_PERMS = [
+    "vessels.view_vessel",
+    "vessels.change_vessel",
+    "vessels.view_mission",
+    "vessels.add_mission",
+    "vessels.change_mission",
+    "vessels.delete_mission",
+    "telemetry.view_fix",
+    "commands.view_command",
+    "commands.add_command",
+    "commands.change_command",
+]
+
+
+def load_schema() -> dict[str, Any]:
+    """The schema as /api/v1/schema/ serves it (the same generator and renderer)."""
+    document = SchemaGenerator().get_schema(request=None, public=True)
+    return json.loads(OpenApiJsonRenderer().render(document))
+
+
+SCHEMA = schemathesis.openapi.from_dict(load_schema())
+SCHEMA.app = WSGIHandler()
+PLACEHOLDER = "credentials-of-"
+
+
+def _scheme(case: Any, context: Any) -> str:
+    return "vesselKey" if case.operation.path.startswith("/api/v1/boat/") else "operatorToken"
+
+
+@SCHEMA.auth(cache_by_key=_scheme)
+class Credentials:
+    """Boat A's key on the boat operations, the operator's token on the others.
+
+    Set as schemathesis auth (not as plain headers) so that its `ignored_auth` check knows
+    them for real credentials and probes each operation without them and with a wrong one.
+    The keys exist only in each test's database while schemathesis builds its boundary cases
+    at collection, so this sets a placeholder that the test swaps for the key.
+    """
+
+    def get(self, case: Any, context: Any) -> str:
+        return PLACEHOLDER + _scheme(case, context)
+
+    def set(self, case: Any, data: str, context: Any) -> None:
+        case.headers = {**(case.headers or {}), "Authorization": data}
+
+
+@pytest.fixture
+def existing(vessel_a: Vessel, command_a: Command, reported: Vessel) -> dict[str, str]:
+    """Boat A with a fix, its command handed over by a poll (so an ack can land), a mission."""
+    command_claim_open(vessel=vessel_a)
+    mission = mission_write(
+        mission=Mission(),
+        fields={"name": "Harbour loop", "vessel": vessel_a},
+        items=[{"lat": -31.95, "lon": 115.86}, {"lat": -31.96, "lon": 115.87}],
+    )
+    return {"slug": vessel_a.slug, "uid": str(command_a.uid), "id": str(mission.pk)}
+
+
+@pytest.fixture
+def in_test_transaction() -> Iterator[None]:
+    """Keep Django's handler from closing the test's connection around each request (as its
+    test client does): the requests must see, and write into, the test's transaction."""
+    request_started.disconnect(close_old_connections)
+    request_finished.disconnect(close_old_connections)
+    yield
+    request_started.connect(close_old_connections)
+    request_finished.connect(close_old_connections)
+
+
+@pytest.fixture
+def credentials(
+    in_test_transaction: None, key_a: str, existing: dict[str, str], settings: Any
+) -> dict[str, str]:
+    """The Authorization header for each security scheme: boat A's key, an operator's token."""
+    # Thousands of requests a minute from one key and one operator: not what this test is about.
+    settings.REST_FRAMEWORK = {
+        **settings.REST_FRAMEWORK,
+        "DEFAULT_THROTTLE_RATES": {"boat": "100000/min", "operator": "100000/min"},
+    }
+    user: User = make_user("schemathesis", OPERATOR_PERMS)
+    _token, raw = operator_token_issue(user=user, name="schemathesis", expires_in=None)
+    return {
+        PLACEHOLDER + "vesselKey": f"Api-Key {key_a}",
+        PLACEHOLDER + "operatorToken": f"Token {raw}",
+    }
+
+
+# Rules OpenAPI 3.0 cannot state, so the valid requests follow them here: they name objects
+# that exist; a time range lies within the plausible window (from 2018 to ten years ahead)
+# with `from` before `to`; a mission's `updated_at` sent back is the version it has now; the
+# mission starts each request without a home, so a PATCH's home rule (checked on the mission
+# as it leaves it) is the body's own.
+# Where validity depends on more than the request, a valid request may still be refused
+# with a 400 naming why: a command's kind and params against the catalog for this vessel's
+# kind, and an imported file's content.
+VALID_BY_STATE = {
+    "POST /api/v1/vessels/{slug}/commands/",
+    "POST /api/v1/missions/import/",
+}
+VALID_RANGE = {"from": "2026-11-23T09:00:00Z", "to": "2026-11-23T11:00:00Z"}
+VALID_TIME = "2026-11-23T10:00:00Z"
+
+
+def follow_the_rules(case: Any, existing: dict[str, str]) -> None:
+    """Make a valid (positive) case follow the rules above; invalid ones stay as generated."""
+    if case.path_parameters:
+        case.path_parameters = {
+            name: existing.get(name, value) for name, value in case.path_parameters.items()
+        }
+    if case.query:
+        query = dict(case.query)
+        for name in ("from", "to"):
+            if name in query:
+                query[name] = VALID_RANGE[name]
+        if "time" in query:
+            query["time"] = VALID_TIME
+        case.query = query
+    if isinstance(case.body, dict) and isinstance(case.body.get("vessel"), str):
+        case.body = {**case.body, "vessel": existing["slug"]}
+    if isinstance(case.body, dict) and "updated_at" in case.body:
+        mission = Mission.objects.get(pk=existing["id"])
+        case.body = {**case.body, "updated_at": mission.updated_at.isoformat()}
+
+
+@pytest.mark.slow
+@pytest.mark.django_db
+@SCHEMA.parametrize()
+@settings(
+    max_examples=EXAMPLES,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=list(HealthCheck),
+)
+def test_the_api_answers_as_its_schema_says(
+    case: Any, credentials: dict[str, str], existing: dict[str, str]
+) -> None:
+    if case.meta.generation.mode.is_positive:
+        follow_the_rules(case, existing)
+    Mission.objects.filter(pk=existing["id"]).update(home_lat=None, home_lon=None)
+    placeholder = (case.headers or {}).get("Authorization")
+    if placeholder in credentials:
+        case.headers["Authorization"] = credentials[placeholder]
+    excluded = [positive_data_acceptance] if case.operation.label in VALID_BY_STATE else []
+    case.call_and_validate(excluded_checks=excluded)
