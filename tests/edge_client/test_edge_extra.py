@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import tomllib
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -67,7 +68,7 @@ def clean_env() -> dict[str, str]:
 
 
 @pytest.fixture(scope="module")
-def edge_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def edge_venv(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     """A fresh virtualenv holding `shoreside[edge]`, installed from a copy of this checkout."""
     base = tmp_path_factory.mktemp("edge-extra")
     source = checkout_copy(base / "src")
@@ -78,7 +79,8 @@ def edge_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
         cwd=base, env=clean_env(), capture_output=True, text=True, timeout=INSTALL_TIMEOUT_S,
     )  # fmt: skip
     assert install.returncode == 0, install.stdout + install.stderr
-    return venv
+    yield venv
+    shutil.rmtree(base, ignore_errors=True)  # ~145 MB (lxml comes with pymavlink)
 
 
 def run_in(venv: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
