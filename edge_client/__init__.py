@@ -5,7 +5,8 @@ It sits between ArduPilot (MAVLink over serial, or UDP/TCP for simulators) and t
 manager, F2414 modem class, started by cron through a respawn script).
 
 Standalone on purpose: it never imports Django, and its only third-party dependencies are
-pymavlink, pyserial and requests (see ``edge_client/requirements.txt``).
+pymavlink, pyserial and requests: the project's ``[edge]`` extra (``edge_client/requirements.txt``
+is the same list).
 """
 
 __version__ = "0.1.0"

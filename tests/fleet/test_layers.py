@@ -4,9 +4,15 @@ sms above those, fleet on top; the edge client stands alone (it runs on the boat
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
+import tomllib
+from importlib.metadata import packages_distributions
 from pathlib import Path
 
 import pytest
+from packaging.requirements import Requirement
+from packaging.utils import canonicalize_name
 
 ROOT = Path(__file__).resolve().parents[2]
 # An app may import apps of a lower layer only; apps of one layer do not import each other.
@@ -46,6 +52,62 @@ def test_no_app_imports_upward(app: str) -> None:
     seen, bad = scan(app)
     assert seen > 0  # the app was found and read
     assert bad == []
+
+
+# The boat's Pi installs the `[edge]` extra only (pyproject.toml): every package the edge client
+# imports must be the standard library's, its own, or come with that extra.
+def edge_extra() -> set[str]:
+    """Distribution names in pyproject's `[edge]` extra, normalised."""
+    pyproject = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    return {requirement_name(r) for r in pyproject["project"]["optional-dependencies"]["edge"]}
+
+
+def requirement_name(requirement: str) -> str:
+    return canonicalize_name(Requirement(requirement).name)
+
+
+def test_edge_client_imports_only_what_its_extra_installs() -> None:
+    extra, owners = edge_extra(), packages_distributions()
+    missing = []
+    for path in sorted((ROOT / "edge_client").rglob("*.py")):
+        for line, package in imported_packages(path):
+            if package in sys.stdlib_module_names or package in ("__future__", "edge_client"):
+                continue
+            dists = {requirement_name(d) for d in owners.get(package, [package])}
+            if not dists & extra:
+                missing.append(f"{path.relative_to(ROOT)}:{line} imports {package}")
+    assert missing == []
+
+
+def test_requirements_txt_is_the_edge_extra() -> None:
+    """edge_client/requirements.txt (a Pi that copies the folder alone) is the `[edge]` list."""
+    lines = (ROOT / "edge_client/requirements.txt").read_text().splitlines()
+    listed = [line.strip() for line in lines if line.strip() and not line.startswith("#")]
+    pyproject = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert listed == pyproject["project"]["optional-dependencies"]["edge"]
+
+
+SERVER_PACKAGES = STANDALONE["edge_client"]  # what the edge client must never load
+# Imports every module of the edge client, its simulator and transports included, then names
+# any server package that came in with them (a module of a dependency may import one too).
+LOADED = """
+import pkgutil, importlib, sys
+import edge_client
+for module in pkgutil.walk_packages(edge_client.__path__, "edge_client."):
+    if not module.name.endswith("__main__"):
+        importlib.import_module(module.name)
+print(" ".join(sorted({name.split(".")[0] for name in sys.modules})))
+"""
+
+
+def test_edge_client_loads_no_server_package_at_run_time() -> None:
+    result = subprocess.run(
+        [sys.executable, "-c", LOADED], cwd=ROOT, capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 0, result.stderr
+    loaded = set(result.stdout.split())
+    assert "edge_client" in loaded and "pymavlink" in loaded  # it did import them
+    assert loaded & SERVER_PACKAGES == set()
 
 
 # Pure logic (DESIGN §2): importable and testable with no database, no port, no network.
