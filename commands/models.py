@@ -66,6 +66,26 @@ class CommandEvent(models.Model):
     to_status = models.CharField(max_length=20)
     actor = models.CharField(max_length=150, blank=True)
     detail = models.TextField(blank=True)
+    # Machine state a transport records beside ``detail`` (which stays for people): the Wave
+    # Glider bridge (sms.bridge.commands) writes these and its replies (sms.services) read them,
+    # so nothing is ever parsed back out of the prose. Empty on everyone else's events.
+    cc_code = models.PositiveIntegerField(
+        null=True, blank=True, help_text="The C&C's answer: 0 for ACK, else the NAK's code."
+    )
+    cc_reason = models.TextField(
+        blank=True,
+        help_text="Why the C&C path failed it, as an SMS reply says it: the NAK code's meaning "
+        "or the inner command table's refusal.",
+    )
+    tid = models.PositiveIntegerField(
+        null=True, blank=True, help_text="The tid of the Level 2 request that took the command."
+    )
+    src_task = models.PositiveSmallIntegerField(
+        null=True, blank=True, help_text="That request's source task id."
+    )
+    src_board = models.PositiveSmallIntegerField(
+        null=True, blank=True, help_text="That request's source board id."
+    )
 
     class Meta:
         ordering = ["at", "pk"]

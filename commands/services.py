@@ -61,12 +61,13 @@ def _transition(
     actor: str = "",
     detail: str = "",
     bump: bool = True,
+    fields: dict[str, Any] | None = None,
 ) -> bool:
     """Move ``command`` from its current status to ``target`` if nobody else moved it first.
 
     The UPDATE is conditional on the status we read, so of two racing callers (two polls,
     a poll and a cancel) exactly one wins, on SQLite and PostgreSQL alike; only the winner
-    records the transition.
+    records the transition. ``fields``: the event's machine state (CommandEvent.cc_code …).
     """
     current = Status(command.status)
     check_transition(current, target)
@@ -87,6 +88,7 @@ def _transition(
         to_status=target.value,
         actor=actor,
         detail=detail,
+        **(fields or {}),
     )
     if bump and target in _LEAVES_BOAT_LIST:
         vessel_bump_commands_version(vessel_id=command.vessel_id)
@@ -517,55 +519,90 @@ def command_deliver_legacy(*, vessel: Vessel, now: dt.datetime | None = None) ->
 
 @transaction.atomic
 def command_mark_sent(
-    *, command: Command, actor: str, detail: str = "", now: dt.datetime | None = None
+    *,
+    command: Command,
+    actor: str,
+    detail: str = "",
+    now: dt.datetime | None = None,
+    tid: int | None = None,
+    src_task: int | None = None,
+    src_board: int | None = None,
 ) -> bool:
     """queued → sent for a command being handed over now; False if it moved first.
 
     The conditional UPDATE (see :func:`_transition`) makes a racing cancel, supersede or
-    expiry win cleanly: the caller must then not hand the command over.
+    expiry win cleanly: the caller must then not hand the command over. ``tid``, ``src_task``
+    and ``src_board`` name the request that took it (kept on the sent event).
     """
-    return _transition(command, Status.SENT, now=now or timezone.now(), actor=actor, detail=detail)
+    request = {"tid": tid, "src_task": src_task, "src_board": src_board}
+    return _transition(
+        command, Status.SENT, now=now or timezone.now(), actor=actor, detail=detail, fields=request
+    )
 
 
 @transaction.atomic
 def command_fail_unsent(
-    *, command: Command, reason: str, actor: str, now: dt.datetime | None = None
+    *,
+    command: Command,
+    reason: str,
+    actor: str,
+    now: dt.datetime | None = None,
+    cc_reason: str = "",
 ) -> bool:
     """Fail a queued command its transport refuses to send, with the reason; False if it moved.
 
     The lifecycle (DESIGN §4) has no queued → failed, so the command passes through sent in
     this one transaction: nobody outside ever sees it sent, and the sent event says that
-    nothing was handed over.
+    nothing was handed over. ``cc_reason`` (the failed event's) is the refusal as a reply
+    says it.
     """
     now = now or timezone.now()
     if not _transition(
         command, Status.SENT, now=now, actor=actor, detail=f"not handed over: {reason}"
     ):
         return False
-    return _transition(command, Status.FAILED, now=now, actor=actor, detail=reason)
+    return _transition(
+        command,
+        Status.FAILED,
+        now=now,
+        actor=actor,
+        detail=reason,
+        fields={"cc_reason": _storable_text(cc_reason)},
+    )
 
 
 @transaction.atomic
 def command_complete(
-    *, command: Command, status: str, detail: str, actor: str, now: dt.datetime | None = None
+    *,
+    command: Command,
+    status: str,
+    detail: str,
+    actor: str,
+    now: dt.datetime | None = None,
+    cc_code: int | None = None,
+    cc_reason: str = "",
 ) -> bool:
     """Record the final answer on a handed-over command: ``done`` or ``failed``.
 
     ``done`` goes sent → acknowledged → done (a single ACK both accepts and completes it),
     ``failed`` goes straight to failed. Returns False, changing nothing, when the command is
     no longer sent or acknowledged (an operator cancelled it meanwhile, or it already ended).
+    ``cc_code`` and ``cc_reason``, the answer itself, go on its events beside ``detail``.
     """
     target = Status(status)
     if target not in (Status.DONE, Status.FAILED):
         raise CommandError("status must be done or failed", field="status")
     now = now or timezone.now()
+    answer = {"cc_code": cc_code, "cc_reason": _storable_text(cc_reason)}
     command.refresh_from_db(fields=["status"])
     if command.status == Status.SENT and target == Status.DONE:
-        if not _transition(command, Status.ACKNOWLEDGED, now=now, actor=actor, detail=detail):
+        if not _transition(
+            command, Status.ACKNOWLEDGED, now=now, actor=actor, detail=detail, fields=answer
+        ):
             return False
     if command.status not in (Status.SENT, Status.ACKNOWLEDGED):
         return False
-    return _transition(command, target, now=now, actor=actor, detail=detail)
+    return _transition(command, target, now=now, actor=actor, detail=detail, fields=answer)
 
 
 def command_note(

@@ -2,9 +2,10 @@
 
 References: issue 11 §3 (``#FHEAD 230 OK``, ``#FHEAD 230 FAILED invalid data``; ``QUEUED`` when
 the reply window passes, then one more SMS when the command ends); DESIGN §7 (a NAK goes back
-to the sender, never silently); ``sms.bridge.commands`` (the result_detail texts read here:
-``C&C: NAK {code}: {meaning}``, ``refused by the inner command table: {reason}``, and
-``no answer from the C&C box``).
+to the sender, never silently); ``sms.bridge.commands`` (the reason of a failed command: its
+failed event's ``cc_reason``, the NAK code's meaning or the inner command table's refusal, as
+the bridge recorded it; else the command's result_detail as written, e.g. ``no answer from the
+C&C box``).
 
 A held reply keeps its answers as JSON (``SmsMessage.parsed`` of the outgoing message):
 ``{"echo", "outcome", "error", "note", "command"}`` where ``command`` is the pk of the command
@@ -14,7 +15,6 @@ whose outcome replaces ``outcome`` once it ends (``note`` stays after it). Pure:
 from __future__ import annotations
 
 import datetime as dt
-import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -27,27 +27,19 @@ FAILED = "FAILED"
 # pure); the others (queued, sent, acknowledged) are still on their way.
 ENDED = {"done": OK, "failed": FAILED, "cancelled": "CANCELLED", "superseded": "SUPERSEDED",
          "expired": "EXPIRED"}  # fmt: skip
-_DETAIL_PREFIXES = (
-    re.compile(r"^C&C: NAK \d+: (?P<reason>.*)$"),
-    re.compile(r"^refused by the inner command table: (?P<reason>.*)$"),
-)
 
 
-def command_outcome(status: str, detail: str = "") -> str | None:
+def command_outcome(status: str, detail: str = "", reason: str | None = None) -> str | None:
     """A command's outcome as a reply says it (``OK``, ``FAILED invalid data``), or None while
-    it has not ended."""
+    it has not ended. A failure gives ``reason`` (the C&C's, recorded as a field) when there
+    is one, else the command's ``detail`` as written: never a reason parsed out of prose."""
     word = ENDED.get(status)
     if word is None:
         return None
     if word != FAILED:
         return word
-    reason = detail.strip()
-    for pattern in _DETAIL_PREFIXES:
-        match = pattern.match(reason)
-        if match:
-            reason = match.group("reason")
-            break
-    return f"{FAILED} {reason}" if reason else FAILED
+    said = (reason or detail).strip()
+    return f"{FAILED} {said}" if said else FAILED
 
 
 def answer_record(answer: Answer, command: int | None = None) -> dict[str, Any]:

@@ -18,13 +18,14 @@ import phonenumbers
 from django.conf import settings
 from django.core.exceptions import ValidationError
 from django.db import IntegrityError, connection, transaction
+from django.db.models import OuterRef, Subquery
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
 from commands import catalog
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import Status
-from commands.models import Command, Source
+from commands.models import Command, CommandEvent, Source
 from commands.services import command_enqueue
 from sms import language, replies, selectors
 from sms.errors import InvalidNumber, NumberNotFound
@@ -572,14 +573,25 @@ def sms_replies_due(*, vessel: Vessel, now: dt.datetime) -> int:
     waiting = SmsMessage.objects.filter(
         vessel=vessel, direction=Direction.OUT, status=SendStatus.WAITING
     ).order_by("created_at", "pk")
+    # A failed command's reason as the bridge recorded it (CommandEvent.cc_reason), read in the
+    # same query as the commands.
+    cc_reason = (
+        CommandEvent.objects.filter(command=OuterRef("pk"), to_status=Status.FAILED)
+        .exclude(cc_reason="")
+        .order_by("-at", "-pk")
+        .values("cc_reason")[:1]
+    )
     for reply in waiting:
         records = [r for r in reply.parsed or [] if isinstance(r, dict)]
         pks = [r["command"] for r in records if isinstance(r.get("command"), int)]
+        commands = (
+            Command.objects.filter(pk__in=pks)
+            .annotate(cc_reason=Subquery(cc_reason))
+            .values_list("pk", "status", "result_detail", "cc_reason")
+        )
         outcomes = {
-            pk: replies.command_outcome(status, detail)
-            for pk, status, detail in Command.objects.filter(pk__in=pks).values_list(
-                "pk", "status", "result_detail"
-            )
+            pk: replies.command_outcome(status, detail, reason)
+            for pk, status, detail, reason in commands
         }
         text, ended = replies.settle(records, outcomes)
         if ended:

@@ -13,9 +13,11 @@ CommandEvent with the detail:
    command is in flight or in quarantine.
 2. ``take_next`` (request queued): the oldest queued command is encoded with the inner command
    table; a refused one is failed with the table's reason and never sent; the first good one
-   is marked ``sent`` with the request's tid in its event, *before* the reply is written.
+   is marked ``sent`` with the request's tid and source in its event (``CommandEvent.tid``,
+   ``src_task``, ``src_board``), *before* the reply is written.
 3. ``complete`` / ``result_without_command``: an ACK makes it ``done`` (through
-   ``acknowledged``), a NAK ``failed`` with the code's meaning.
+   ``acknowledged``), a NAK ``failed`` with the code's meaning (``CommandEvent.cc_code`` and
+   ``cc_reason``; the SMS replies read these, the detail beside them is for people).
 4. ``expire_overdue`` (the bridge loop, about once a second): no answer within
    ``result_timeout_s`` fails it, "no answer from the C&C box"; once a minute, queued commands
    past their ``expires_at`` become ``expired`` (the queries never offer them anyway).
@@ -42,7 +44,7 @@ Crash safety (the source keeps its state in the database, not in memory):
   takes it. Nothing was handed over.
 * killed after ``sent`` was committed (whether or not the reply left): on restart the newest
   ``sent`` command is in flight again, with its timeout running from ``sent_at``. The tid of its
-  request is in its sent event, so the C&C's retry of that request (same tid, §10) is answered
+  request is on its sent event, so the C&C's retry of that request (same tid, §10) is answered
   with the same command, not with a second one; the machine's own reply cache died with it.
   A result arriving after the restart comes as ``ResultWithoutCommand`` (the new machine has no
   record of the handover) and is credited to the command in flight.
@@ -53,7 +55,6 @@ from __future__ import annotations
 
 import datetime as dt
 import logging
-import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -82,7 +83,7 @@ from vessels.models import Vessel
 log = logging.getLogger(__name__)
 
 ACTOR = "wg-bridge"
-# A command's result_detail, as the bridge writes it (the SMS replies read these):
+# A command's result_detail, as the bridge writes it for people (code reads the event's fields):
 ACK_DETAIL = "C&C: ACK (accepted)"
 NAK_DETAIL = "C&C: NAK {code}: {meaning}"  # meaning: sms.level2.bodies.response_meaning
 NO_ANSWER = "no answer from the C&C box"
@@ -95,11 +96,10 @@ QUARANTINE_S = 60.0
 # restart. A request with the same tid after this window is a new one (the C&C's counter wraps).
 RETRY_WINDOW_S = 10.0
 
-# The sent event's detail carries the request's tid: what a restarted bridge needs to answer
-# the C&C's retry identically. Written and read only here.
+# The sent event's detail says which request took the command; its fields (tid, src_task,
+# src_board) keep the same for a restarted bridge, to answer the C&C's retry identically.
 _HANDOVER = "handed over to the C&C in reply to request queued tid 0x{tid:04X} from {src}"
 _HANDOVER_UNKNOWN = "handed over to the C&C"
-_HANDOVER_TID = re.compile(r"request queued tid 0x([0-9A-F]{4}) from (\d+)/(\d+)")
 _OPEN = [s.value for s in OPEN]
 OPEN_INDEX = "command_open_by_vessel"  # commands.models.Command.Meta.indexes
 _NO_INDEX = object()  # _query_waiting could not use OPEN_INDEX
@@ -144,6 +144,8 @@ class _Outcome:
     detail: str
     answer: str
     at: dt.datetime
+    code: int | None = None  # the C&C's answer code; None: it never answered
+    reason: str = ""  # a NAK code's meaning
 
 
 class DatabaseCommandSource:
@@ -349,15 +351,22 @@ class DatabaseCommandSource:
             inner = self.table.encode(command.kind, command.params)
         except CommandRefused as exc:
             reason = REFUSED_DETAIL.format(reason=exc.reason)
-            command_fail_unsent(command=command, reason=reason, actor=ACTOR, now=now)
+            command_fail_unsent(
+                command=command, reason=reason, actor=ACTOR, now=now, cc_reason=exc.reason
+            )
             log.warning("command %s (%s) failed unsent: %s", command.uid, command.kind, reason)
             return None
-        detail = (
-            _HANDOVER.format(tid=request.tid, src=f"{request.src_task}/{request.src_board}")
-            if request is not None
-            else _HANDOVER_UNKNOWN
-        )
-        if not command_mark_sent(command=command, actor=ACTOR, detail=detail, now=now):
+        detail, taken_by = _HANDOVER_UNKNOWN, {}
+        if request is not None:
+            detail = _HANDOVER.format(
+                tid=request.tid, src=f"{request.src_task}/{request.src_board}"
+            )
+            taken_by = {
+                "tid": request.tid,
+                "src_task": request.src_task,
+                "src_board": request.src_board,
+            }
+        if not command_mark_sent(command=command, actor=ACTOR, detail=detail, now=now, **taken_by):
             return None  # cancelled, superseded or expired a moment ago: never hand it over
         queued = QueuedCommand(str(command.uid), inner)
         self._in_flight = InFlight(
@@ -407,7 +416,8 @@ class DatabaseCommandSource:
             log.info("result the machine matched to %s credited to %s", machine_ident, flight.uid)
         status = Status.DONE if code == 0 else Status.FAILED
         detail = NAK_DETAIL.format(code=code, meaning=meaning) if code else ACK_DETAIL
-        self._settle(_Outcome(flight, status, detail, answer, now))
+        reason = meaning if code else ""
+        self._settle(_Outcome(flight, status, detail, answer, now, code, reason))
 
     def _settle(self, outcome: _Outcome) -> bool:
         """Write one outcome; if the database refuses, keep it for :meth:`flush_results`."""
@@ -419,6 +429,8 @@ class DatabaseCommandSource:
                 detail=outcome.detail,
                 actor=ACTOR,
                 now=outcome.at,
+                cc_code=outcome.code,
+                cc_reason=outcome.reason,
             ):
                 note = (
                     f"the C&C answered {outcome.answer} after the command became {command.status}"
@@ -505,7 +517,6 @@ def _handover_request(command: Command) -> tuple[int | None, Address | None]:
         .order_by("-at", "-pk")
         .first()
     )
-    match = _HANDOVER_TID.search(event.detail) if event else None
-    if match is None:
+    if event is None or None in (event.tid, event.src_task, event.src_board):
         return None, None
-    return int(match[1], 16), Address(int(match[2]), int(match[3]))
+    return event.tid, Address(event.src_task, event.src_board)

@@ -513,7 +513,12 @@ def _iso(value: dt.datetime | None) -> str | None:
 
 
 def command_report_wire(command: Command) -> dict[str, Any]:
-    """A local command as ``POST boat/commands/report/`` takes it: as it stands now."""
+    """A local command as ``POST boat/commands/report/`` takes it: as it stands now.
+
+    The C&C's answer travels as ``result_detail``, for the shore's operators. Its fields on the
+    events here (``cc_code``, ``cc_reason``, the request's ``tid``) stay on the glider: nothing
+    on the shore reads them (it sends no SMS replies, and a tid means nothing off this serial
+    link), and an optional field can still be added later without breaking either side."""
     return {
         "uid": str(command.uid),
         "kind": command.kind,

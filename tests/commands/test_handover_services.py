@@ -98,3 +98,40 @@ def test_a_note_keeps_the_status(glider: Vessel) -> None:
     assert event.detail == "late answer\ufffd"
     command.refresh_from_db()
     assert command.status == Status.QUEUED
+
+
+def answers(command: Command) -> list[tuple[str, int | None, str, int | None]]:
+    """Each event's machine state: (to_status, cc_code, cc_reason, tid)."""
+    return list(
+        command.events.order_by("pk").values_list("to_status", "cc_code", "cc_reason", "tid")
+    )
+
+
+def test_the_answer_and_the_request_go_on_the_events_they_belong_to(glider: Vessel) -> None:
+    # not navigation commands: a newer one would supersede the older ones
+    done, failed, refused = (
+        command_enqueue(vessel=glider, kind="light", params={"state": state})
+        for state in ("ON", "OFF", "ON")
+    )
+    for command, tid in ((done, 0x1A), (failed, 0x1C)):
+        command_mark_sent(command=command, actor="wg-bridge", tid=tid, src_task=0, src_board=0)
+    command_complete(command=done, status="done", detail="ACK", actor="wg-bridge", cc_code=0)
+    command_complete(
+        command=failed,
+        status="failed",
+        detail="NAK",
+        actor="wg-bridge",
+        cc_code=2,
+        cc_reason="invalid data\x00",
+    )
+    command_fail_unsent(command=refused, reason="no", actor="wg-bridge", cc_reason="bad params")
+    assert answers(done)[1:] == [
+        ("sent", None, "", 0x1A),
+        ("acknowledged", 0, "", None),  # one ACK both accepts and completes it
+        ("done", 0, "", None),
+    ]
+    assert answers(failed)[1:] == [
+        ("sent", None, "", 0x1C),
+        ("failed", 2, "invalid data\ufffd", None),
+    ]
+    assert answers(refused)[1:] == [("sent", None, "", None), ("failed", None, "bad params", None)]

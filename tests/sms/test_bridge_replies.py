@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from commands.models import Command
 from commands.services import command_complete, command_mark_sent
 from sms import replies
-from sms.bridge.commands import ACK_DETAIL, NAK_DETAIL, NO_ANSWER, REFUSED_DETAIL
+from sms.bridge.commands import ACK_DETAIL, NAK_DETAIL, NO_ANSWER
 from sms.gsm7 import SMS_SEPTETS, septets
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services import authorised_number_authorise, sms_handle_incoming, sms_replies_due
@@ -26,23 +26,27 @@ T0 = dt.datetime(2026, 11, 25, 6, 0, tzinfo=dt.UTC)
 
 
 @pytest.mark.parametrize(
-    ("status", "detail", "outcome"),
+    ("status", "detail", "reason", "outcome"),
     [
-        ("done", ACK_DETAIL, "OK"),
-        ("failed", NAK_DETAIL.format(code=2, meaning="invalid data"), "FAILED invalid data"),
-        ("failed", NO_ANSWER, "FAILED no answer from the C&C box"),
-        ("failed", REFUSED_DETAIL.format(reason="not enabled"), "FAILED not enabled"),
-        ("failed", "", "FAILED"),
-        ("superseded", "", "SUPERSEDED"),
-        ("queued", "", None),
-        ("sent", "", None),
-        ("acknowledged", "", None),
+        ("done", ACK_DETAIL, None, "OK"),
+        ("failed", NAK_DETAIL.format(code=2, meaning="invalid data"), "invalid data",
+         "FAILED invalid data"),
+        ("failed", NO_ANSWER, None, "FAILED no answer from the C&C box"),
+        ("failed", "refused by the inner command table: not enabled", "not enabled",
+         "FAILED not enabled"),
+        # the reason is the recorded field, whatever the detail beside it says
+        ("failed", "the C&C box said no", "invalid data", "FAILED invalid data"),
+        ("failed", "", None, "FAILED"),
+        ("superseded", "", None, "SUPERSEDED"),
+        ("queued", "", None, None),
+        ("sent", "", None, None),
+        ("acknowledged", "", None, None),
     ],
-)
+)  # fmt: skip
 def test_a_command_outcome_reads_as_the_reply_says_it(
-    status: str, detail: str, outcome: str | None
+    status: str, detail: str, reason: str | None, outcome: str | None
 ) -> None:
-    assert replies.command_outcome(status, detail) == outcome
+    assert replies.command_outcome(status, detail, reason) == outcome
 
 
 def test_settle_replaces_each_command_outcome_and_says_whether_all_ended() -> None:
@@ -118,11 +122,19 @@ def outgoing(glider: Vessel) -> list[tuple[str, str]]:
     ]
 
 
-def end(command: Command, *, ok: bool, detail: str = "") -> None:
+def end(
+    command: Command, *, ok: bool, detail: str = "", code: int | None = 0, reason: str = ""
+) -> None:
     command_mark_sent(command=command, actor="test", now=T0)
     status = "done" if ok else "failed"
     command_complete(
-        command=command, status=status, detail=detail or ACK_DETAIL, actor="test", now=T0
+        command=command,
+        status=status,
+        detail=detail or ACK_DETAIL,
+        actor="test",
+        now=T0,
+        cc_code=code,
+        cc_reason=reason,
     )
 
 
@@ -138,11 +150,25 @@ def test_a_command_reply_waits_and_says_ok_once_the_command_is_done(
     assert outgoing(glider) == [("pending", "#FHEAD 230 OK")]
 
 
-def test_a_nak_reply_names_the_reason(glider: Vessel, phone: str) -> None:
+@pytest.mark.parametrize(
+    "detail", [NAK_DETAIL.format(code=2, meaning="invalid data"), "C&C said no (code 2)"]
+)
+def test_a_nak_reply_names_the_reason_recorded_whatever_the_detail_says(
+    glider: Vessel, phone: str, detail: str
+) -> None:
     text_in(glider, "#FHEAD 230")
-    end(Command.objects.get(), ok=False, detail=NAK_DETAIL.format(code=2, meaning="invalid data"))
+    end(Command.objects.get(), ok=False, detail=detail, code=2, reason="invalid data")
     sms_replies_due(vessel=glider, now=T0)
     assert outgoing(glider) == [("pending", "#FHEAD 230 FAILED invalid data")]
+
+
+def test_a_failure_without_a_recorded_reason_says_its_detail_as_written(
+    glider: Vessel, phone: str
+) -> None:
+    text_in(glider, "#FHEAD 230")
+    end(Command.objects.get(), ok=False, detail=NO_ANSWER, code=None)
+    sms_replies_due(vessel=glider, now=T0)
+    assert outgoing(glider) == [("pending", "#FHEAD 230 FAILED no answer from the C&C box")]
 
 
 def test_past_the_window_queued_goes_out_then_one_more_sms_when_it_ends(

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from commands.lifecycle import Status
-from commands.models import Command
+from commands.models import Command, CommandEvent
 from commands.services import command_cancel, command_enqueue
 from sms.bridge.commands import NO_ANSWER, DatabaseCommandSource
 from sms.bridge.machine import BridgeMachine
@@ -63,6 +63,12 @@ def trail(command: Command) -> list[tuple[str, str, str]]:
     return [(e.from_status, e.to_status, e.detail) for e in command.events.order_by("pk")]
 
 
+def fields(command: Command, to_status: str) -> tuple[object, ...]:
+    """The machine state on the command's event to ``to_status``."""
+    event = command.events.get(to_status=to_status)
+    return (event.cc_code, event.cc_reason, event.tid, event.src_task, event.src_board)
+
+
 def test_it_counts_only_this_vessels_queued_commands(glider: Vessel, clock: Clock) -> None:
     other = vessel_create(slug="glider-2", name="Other glider", kind="wave_glider")
     enqueue(glider, "light", state="ON")
@@ -92,6 +98,7 @@ def test_a_handover_marks_the_command_sent_once_with_its_request(
     assert [t for t in trail(command) if t[1] == Status.SENT] == [
         ("queued", "sent", "handed over to the C&C in reply to request queued tid 0x001A from 0/0")
     ]
+    assert fields(command, Status.SENT) == (None, "", 0x1A, 0, 0)
     assert not flagged(machine, source, 0x1B), "one command at a time: nothing flagged"
 
 
@@ -106,6 +113,7 @@ def test_an_ack_makes_it_done_through_acknowledged(glider: Vessel, clock: Clock)
         ("sent", "acknowledged"),
         ("acknowledged", "done"),
     ]
+    assert fields(command, Status.DONE) == (0, "", None, None, None)
     assert source.in_flight is None
 
 
@@ -117,6 +125,7 @@ def test_a_nak_fails_it_with_the_codes_meaning(glider: Vessel, clock: Clock) -> 
     command.refresh_from_db()
     assert command.status == Status.FAILED
     assert command.result_detail == "C&C: NAK 2: invalid data"
+    assert fields(command, Status.FAILED) == (2, "invalid data", None, None, None)
 
 
 def test_a_command_the_table_refuses_fails_unsent_and_the_next_goes(
@@ -132,6 +141,8 @@ def test_a_command_the_table_refuses_fails_unsent_and_the_next_goes(
     assert refused.result_detail.startswith(
         "refused by the inner command table: provisional entry not enabled"
     )
+    code, reason, *_ = fields(refused, Status.FAILED)
+    assert code is None and str(reason).startswith("provisional entry not enabled")
     assert "not handed over" in trail(refused)[1][2]
     assert good.status == Status.SENT
 
@@ -164,6 +175,7 @@ def test_no_answer_fails_it_and_a_late_answer_is_never_credited_to_the_next(
     assert source.expire_overdue()
     a.refresh_from_db()
     assert (a.status, a.result_detail) == (Status.FAILED, NO_ANSWER)
+    assert fields(a, Status.FAILED) == (None, "", None, None, None)  # the C&C never answered
 
     # quarantine: B is not offered, and A's late answer is logged on A, credited to nobody
     assert not flagged(machine, source, 0x20)
@@ -221,6 +233,19 @@ def test_a_restart_after_the_handover_answers_the_retry_identically(
     feed(machine, source, result(0, 0x1B))
     command.refresh_from_db()
     assert command.status == Status.DONE
+
+
+def test_a_restart_reads_the_request_from_the_sent_events_fields_not_its_detail(
+    glider: Vessel, clock: Clock
+) -> None:
+    command = enqueue(glider, "fhead", bearing=230)
+    machine, source = start(glider, clock)
+    before = feed(machine, source, queued(0x1A))
+    # the detail is for people: rewording it must not change what a restart answers
+    CommandEvent.objects.filter(command=command, to_status=Status.SENT).update(detail="sent")
+    clock.advance(2)
+    machine, source = start(glider, clock)
+    assert feed(machine, source, queued(0x1A)) == before
 
 
 def test_after_a_restart_a_new_request_takes_nothing_while_one_is_in_flight(
