@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections import Counter
 from collections.abc import Iterator
 from typing import Any
 
@@ -27,7 +28,7 @@ import schemathesis
 from django.contrib.auth.models import User
 from django.core.handlers.wsgi import WSGIHandler
 from django.core.signals import request_finished, request_started
-from django.db import close_old_connections
+from django.db import close_old_connections, connection
 from drf_spectacular.generators import SchemaGenerator
 from drf_spectacular.renderers import OpenApiJsonRenderer
 from hypothesis import HealthCheck, settings
@@ -165,6 +166,27 @@ def follow_the_rules(case: Any, existing: dict[str, str]) -> None:
         case.body = {**case.body, "updated_at": mission.updated_at.isoformat()}
 
 
+# What the run did, printed once at the end of the module (CI's log then carries the figures
+# per database): operations reached, requests made by the cases, answers by status class.
+TALLY: Counter[str] = Counter()
+OPERATIONS: set[str] = set()
+
+
+@pytest.fixture(scope="module", autouse=True)
+def report_the_tally(request: pytest.FixtureRequest) -> Iterator[None]:
+    yield
+    if not TALLY:
+        return
+    classes = ", ".join(f"{k} {TALLY[k]}" for k in sorted(TALLY) if k.endswith("xx"))
+    line = (
+        f"schemathesis on {connection.vendor}: {len(OPERATIONS)} operations, "
+        f"{TALLY['requests']} requests ({classes}), {EXAMPLES} random examples per operation"
+    )
+    reporter = request.config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None:
+        reporter.write_line(line)
+
+
 @pytest.mark.slow
 @pytest.mark.django_db
 @SCHEMA.parametrize()
@@ -185,4 +207,7 @@ def test_the_api_answers_as_its_schema_says(
     if placeholder in credentials:
         case.headers["Authorization"] = credentials[placeholder]
     excluded = [positive_data_acceptance] if case.operation.label in VALID_BY_STATE else []
-    case.call_and_validate(excluded_checks=excluded)
+    response = case.call_and_validate(excluded_checks=excluded)
+    OPERATIONS.add(case.operation.label)
+    TALLY["requests"] += 1
+    TALLY[f"{response.status_code // 100}xx"] += 1
