@@ -24,6 +24,9 @@ cleanup() { kill "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
 trap cleanup EXIT INT TERM
 $py -m gunicorn fleet.wsgi -b "127.0.0.1:$PORT" -w 2 --threads 4 &
 pids+=($!)
+# Keeps the maps' track overview built as the boats report (map reads never write).
+$py manage.py rebuild_track_overview --loop --interval 5 >"$SHORESIDE_DATA_DIR/overview.log" 2>&1 &
+pids+=($!)
 sleep 2
 $py manage.py simulate_boat --server "http://127.0.0.1:$PORT" --key-file "$(key_file spab)" \
   --start=-31.9790,115.8170 --port "$BOAT_PORT" >"$SHORESIDE_DATA_DIR/sim-spab.log" 2>&1 &

@@ -88,8 +88,9 @@ class TrackDirty(models.Model):
     """A minute of a vessel's track whose overview buckets are out of date.
 
     Ingest adds one per minute it stored a fix in (late store-and-forward fixes included), in
-    the same statement or transaction as the fixes; the next overview read rebuilds and clears
-    them. Cheap to write, and a reader never sees a bucket older than the fixes it summarises.
+    the same statement or transaction as the fixes; `rebuild_track_overview --loop` rebuilds and
+    clears them, and until then reads take the minute's fixes instead of its buckets. Cheap to
+    write, and a reader never uses a bucket older than the fixes it summarises.
     """
 
     vessel = models.ForeignKey(Vessel, on_delete=models.CASCADE, related_name="+")

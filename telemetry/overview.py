@@ -9,7 +9,8 @@ width (coarser ones); every field merges exactly, so a coarse bucket equals one 
 
 A time range is then read as a *cover*: the coarsest whole buckets inside it, finer buckets at
 its ragged ends, raw fixes for the parts shorter than a minute. Every fix in the range is counted
-exactly once and the range's first, last and extreme fixes are among the candidates.
+exactly once and the range's first, last and extreme fixes are among the candidates. Minutes
+whose buckets are not rebuilt yet are read from their fixes too, so a read never writes.
 """
 
 from __future__ import annotations
@@ -148,9 +149,47 @@ def group_by_bucket(items: Iterable[Any], width: int, time_of: Any) -> dict[int,
     return groups
 
 
-def cover(start: float, end: float, level: int) -> list[tuple[int, float, float]]:
+def cover(
+    start: float, end: float, level: int, dirty: Sequence[int] = ()
+) -> list[tuple[int, float, float]]:
     """[start, end) as (width, lo, hi) pieces in time order: whole buckets of WIDTHS[level]
-    in the middle, finer widths toward the ends, RAW for what no whole minute covers."""
+    in the middle, finer widths toward the ends, RAW for what no whole minute covers.
+
+    ``dirty``: sorted starts of minutes whose buckets are out of date (not yet rebuilt). They
+    are RAW pieces, and no bucket piece holds one: a coarse bucket over a dirty minute is as
+    stale as the minute's own, so the clean stretches between them are covered on their own.
+    Adjacent RAW pieces are joined (one read of the fixes each)."""
+    pieces: list[tuple[int, float, float]] = []
+    at = start
+    for lo, hi in _minute_runs(dirty):
+        lo, hi = max(lo, at), min(hi, end)
+        if lo >= hi:
+            continue
+        pieces += _cover(at, lo, level)
+        pieces.append((RAW, lo, hi))
+        at = hi
+    pieces += _cover(at, end, level)
+    joined: list[tuple[int, float, float]] = []
+    for piece in pieces:
+        if joined and piece[0] == RAW == joined[-1][0] and joined[-1][2] == piece[1]:
+            joined[-1] = (RAW, joined[-1][1], piece[2])
+        else:
+            joined.append(piece)
+    return joined
+
+
+def _minute_runs(minutes: Sequence[int]) -> list[tuple[int, int]]:
+    """Sorted minute starts as [lo, hi) runs of consecutive minutes."""
+    runs: list[tuple[int, int]] = []
+    for m in minutes:
+        if runs and runs[-1][1] == m:
+            runs[-1] = (runs[-1][0], m + WIDTHS[0])
+        else:
+            runs.append((m, m + WIDTHS[0]))
+    return runs
+
+
+def _cover(start: float, end: float, level: int) -> list[tuple[int, float, float]]:
     if end <= start:
         return []
     if level < 0:
@@ -161,11 +200,11 @@ def cover(start: float, end: float, level: int) -> list[tuple[int, float, float]
     lo += width if lo < start else 0
     hi -= width if hi > end else 0
     if lo >= hi:
-        return cover(start, end, level - 1)
+        return _cover(start, end, level - 1)
     return [
-        *cover(start, lo, level - 1),
+        *_cover(start, lo, level - 1),
         (width, lo, hi),
-        *cover(hi, end, level - 1),
+        *_cover(hi, end, level - 1),
     ]
 
 

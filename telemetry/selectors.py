@@ -14,8 +14,8 @@ from typing import Any
 from django.db import connection
 from django.db.models import QuerySet
 
-from telemetry.models import Fix, TrackBucket
-from telemetry.overview import RawFix, Summary
+from telemetry.models import Fix, TrackBucket, TrackDirty
+from telemetry.overview import WIDTHS, RawFix, Summary
 from vessels.models import Vessel
 
 
@@ -161,3 +161,14 @@ def buckets(
         summary_from_row(r[0], r[1], p, c)
         for r, p, c in zip(rows, point_sets, channel_sets, strict=True)
     ]
+
+
+def dirty_minutes(vessel_id: int, lo: float, hi: float) -> list[int]:
+    """Starts of the vessel's minutes touching [lo, hi) whose buckets are not rebuilt yet
+    (TrackDirty), sorted: a read takes their fixes instead of their stale buckets."""
+    d = column_names(TrackDirty)
+    sql = (
+        f"SELECT {d['start']} FROM {d['table']} WHERE {d['vessel']} = %s"
+        f" AND {d['start']} > %s AND {d['start']} < %s ORDER BY {d['start']}"
+    )
+    return [row[0] for row in _query(sql, [vessel_id, lo - WIDTHS[0], hi])]

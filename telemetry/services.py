@@ -283,7 +283,8 @@ def sensor_channel_save(*, channel: SensorChannel) -> SensorChannel:
     return channel
 
 
-# --- the track overview (telemetry/overview.py): marked dirty by ingest, rebuilt on read ---
+# --- the track overview (telemetry/overview.py): marked dirty by ingest, rebuilt in the
+# background (rebuild_track_overview --loop); reads take the fixes of the dirty minutes ---
 
 # Dirty minutes closer than this are rebuilt from one read of the fixes between them.
 DIRTY_RUN_JOIN_S = 1800
@@ -331,26 +332,36 @@ def _mark_dirty_cte() -> str:
     )
 
 
-def track_overview_refresh(*, vessel_id: int) -> int:
+def track_overview_refresh(*, vessel_id: int, max_span_s: int | None = None) -> int:
     """Rebuild the overview buckets of the vessel's dirty minutes; how many minutes.
 
     The marks are claimed (DELETE … RETURNING) in the transaction that rebuilds them: a fix
     stored meanwhile either is visible to the rebuild's reads or leaves a new mark behind.
+    ``max_span_s`` claims only the marks within that many seconds of the oldest one: a backlog
+    is then rebuilt in short transactions, and an ingest marking one of its minutes waits for
+    one of them, not for the whole backlog (call again until it returns 0).
     """
     if not TrackDirty.objects.filter(vessel_id=vessel_id).exists():
         return 0
     qn = connection.ops.quote_name
-    sql = (
-        f"DELETE FROM {qn(TrackDirty._meta.db_table)} WHERE {qn('vessel_id')} = %s"
-        f" RETURNING {qn('start')}"
-    )
+    table, vessel, start = qn(TrackDirty._meta.db_table), qn("vessel_id"), qn("start")
+    sql = f"DELETE FROM {table} WHERE {vessel} = %s"
+    params: list[Any] = [vessel_id]
+    if max_span_s is not None:
+        sql += f" AND {start} < (SELECT MIN({start}) FROM {table} WHERE {vessel} = %s) + %s"
+        params += [vessel_id, max_span_s]
     with transaction.atomic():
         with connection.cursor() as cursor:
-            cursor.execute(sql, [vessel_id])
+            cursor.execute(f"{sql} RETURNING {start}", params)
             minutes = sorted(row[0] for row in cursor.fetchall())
         for lo, hi in _runs(minutes):
             _rebuild_range(vessel_id, lo, hi)
     return len(minutes)
+
+
+def track_overview_dirty_vessels() -> list[int]:
+    """Ids of the vessels with minutes waiting for a rebuild."""
+    return sorted(set(TrackDirty.objects.values_list("vessel_id", flat=True).distinct()))
 
 
 def _runs(minutes: list[int]) -> list[tuple[int, int]]:

@@ -2,13 +2,15 @@
 
 Both read a *cover* of the range (telemetry/overview.py): whole overview buckets in the middle,
 finer ones toward the ends, raw fixes for the ragged minutes; so a month costs ~1,000 rows, not
-a million fixes. A short range (few fixes) is read from the fixes themselves. Callers refresh
-the overview first (services.track_overview_refresh), so no bucket lags its fixes.
+a million fixes. A short range (few fixes) is read from the fixes themselves. Reads never write:
+minutes marked out of date (TrackDirty, until `rebuild_track_overview --loop` rebuilds them) are
+read from their fixes, and no bucket over them is used, so no answer lags its fixes.
 """
 
 from __future__ import annotations
 
 import datetime as dt
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,14 +52,15 @@ def track(*, vessel: Vessel, start: dt.datetime, end: dt.datetime, max_points: i
     lo, hi = start.timestamp(), end.timestamp()
     gap_s = gap_seconds(vessel)
     level = finest_level_within(lo, hi, int(max_points * TRACK_ROW_BUDGET_PER_POINT))
-    points, gaps, count = _candidates(vessel.pk, lo, hi, level, gap_s)
+    dirty = selectors.dirty_minutes(vessel.pk, lo, hi)
+    points, gaps, count = _candidates(vessel.pk, lo, hi, level, gap_s, dirty)
     if count <= TRACK_RAW_FIXES and len(points) < count:
         points, gaps, count = _candidates(vessel.pk, lo, hi, -1, gap_s)
     return Track(count, gap_s, simplify(points, max_points=max_points, gaps=gaps))
 
 
 def _candidates(
-    vessel_id: int, lo: float, hi: float, level: int, gap_s: float
+    vessel_id: int, lo: float, hi: float, level: int, gap_s: float, dirty: Sequence[int] = ()
 ) -> tuple[list[Point], list[int], int]:
     """(points, break indices, fixes counted) over the cover of [lo, hi) at ``level``.
 
@@ -68,7 +71,7 @@ def _candidates(
     points: list[Point] = []
     gaps: list[int] = []
     count = 0
-    for width, a, b in cover(lo, hi, level):
+    for width, a, b in cover(lo, hi, level, dirty):
         if width == RAW:
             for point in selectors.raw_points(vessel_id, a, b):
                 if points and point[0] - points[-1][0] > gap_s:
@@ -104,7 +107,8 @@ def series(*, vessel: Vessel, start: dt.datetime, end: dt.datetime, max_buckets:
     # The coarsest overview width that divides the bucket: each of its rows lies in one bucket.
     level = max((i for i, w in enumerate(WIDTHS) if width % w == 0), default=-1)
     sampler = Downsampler(lo, hi, width)
-    for piece_width, a, b in cover(lo, hi, level):
+    dirty = selectors.dirty_minutes(vessel.pk, lo, hi)
+    for piece_width, a, b in cover(lo, hi, level, dirty):
         if piece_width == RAW:
             for t, _lat, _lon, battery, readings in selectors.raw_fixes(vessel.pk, a, b):
                 if battery is not None:

@@ -16,8 +16,8 @@ board answered in 4–17 ms, level2.md §2, §10):
 * ``loops`` given to the bridge (the shore link's ``run(stop)``), each in a thread of its own:
   a slow shore server delays nothing else.
 * the main thread: :meth:`Bridge.do_one_housekeeping` about once a second (command timeouts,
-  fix batches, results the database refused, the ``periodic`` tasks, ``close_old_connections``)
-  and the systemd watchdog.
+  fix batches, results the database refused, ``close_old_connections``; a step that keeps
+  failing is retried ever less often) and the systemd watchdog.
 
 A stop (SIGTERM/SIGINT set the flag) ends the threads, then writes what is still in memory
 (fixes, command results). Everything else is in the database as it happens: queued commands,
@@ -68,6 +68,9 @@ REPLY_MARGIN_S = 10.0
 TICK_S = 1.0
 RECONNECT_DELAY_S = 1.0
 JOIN_S = 10.0
+# A housekeeping step that keeps failing (a database away, a bug) is retried ever less often,
+# up to this long apart: one line per retry, not a traceback every tick.
+HOUSEKEEPING_RETRY_MAX_S = 30.0
 ENV_PREFIX = "WG_"
 
 
@@ -91,13 +94,18 @@ class HealingMachine(BridgeMachine):
         return super().handle(frame)
 
 
-class PeriodicTask:
-    """A named step the main loop runs each tick (e.g. a shore link's sync); see Bridge."""
+@dataclass
+class StepHealth:
+    """A housekeeping step's failures in a row, and when to try it again after the last one."""
 
-    def __init__(self, name: str, step: Callable[[], object]) -> None:
-        self.name = name
-        self.step = step
-        self.failures = 0
+    failures: int = 0
+    retry_at: float = 0.0
+
+
+def housekeeping_retry_s(tick_s: float, failures: int) -> float:
+    """How long a step that failed ``failures`` times in a row is left alone: the next tick
+    after one failure, then doubling up to HOUSEKEEPING_RETRY_MAX_S."""
+    return min(tick_s * 2 ** (failures - 1), max(tick_s, HOUSEKEEPING_RETRY_MAX_S))
 
 
 @dataclass(frozen=True)
@@ -189,7 +197,6 @@ class Bridge:
         config: BridgeConfig,
         *,
         vessel: Vessel | None = None,
-        periodic: Sequence[PeriodicTask] = (),
         loops: Sequence[tuple[str, Callable[[threading.Event], None]]] = (),
         level2_trace: Callable[[str], None] | None = None,
         modem_config: Mapping[str, object] | None = None,
@@ -242,7 +249,9 @@ class Bridge:
                 port = config.sensor_ports.get(record.name, record.port)
                 records.append(dataclasses.replace(record, port=port))
             self.subscriber = SensorSubscriber(config.sensor_host, records, self.readings)
-        self.periodic = list(periodic)
+        self.step_health: dict[str, StepHealth] = {}
+        # The housekeeping's clock (seconds); tests replace it.
+        self.clock: Callable[[], float] = time.monotonic
         self.loops = list(loops)
         self.threads: list[threading.Thread] = []
         self.ticks = 0
@@ -281,29 +290,51 @@ class Bridge:
         self.stop_event.set()
 
     def do_one_housekeeping(self) -> bool:
-        """One tick of the main loop; True if it got through without a database error."""
+        """One tick of the main loop; True if it got through without a database error.
+
+        A failing step is logged and left alone for a while (housekeeping_retry_s), the others
+        carry on: its traceback is logged once, each later failure in one line."""
         self.ticks += 1
         steps: list[tuple[str, Callable[[], object]]] = [
             ("command timeouts", self._expire_overdue),
             ("fixes", self.fixes.flush_if_due),
             ("command results", self.source.flush_results),
         ]
-        steps += [(task.name, task.step) for task in self.periodic]
         healthy = True
+        now = self.clock()
         for name, step in steps:
+            health = self.step_health.setdefault(name, StepHealth())
+            if health.failures and now < health.retry_at:
+                continue
             try:
                 step()
             except DatabaseError as exc:
                 healthy = False
-                log.warning("%s: database error: %s; reconnecting", name, exc)
+                self._step_failed(name, health, now, f"database error: {exc}; reconnecting")
                 connection.close()
-            except Exception:  # noqa: BLE001 - one failing task must not stop the others
-                log.exception("%s failed", name)
-                for task in self.periodic:
-                    if task.name == name:
-                        task.failures += 1
+            except Exception as exc:  # noqa: BLE001 - one failing step must not stop the others
+                self._step_failed(name, health, now, repr(exc), traceback=True)
+            else:
+                if health.failures:
+                    log.info("%s: working again after %d failure(s)", name, health.failures)
+                    health.failures = 0
         close_old_connections()
         return healthy
+
+    def _step_failed(
+        self, name: str, health: StepHealth, now: float, what: str, *, traceback: bool = False
+    ) -> None:
+        health.failures += 1
+        delay = housekeeping_retry_s(self.config.tick_s, health.failures)
+        health.retry_at = now + delay
+        if health.failures == 1:
+            level = logging.ERROR if traceback else logging.WARNING
+            log.log(level, "%s failed: %s", name, what, exc_info=traceback)
+        else:
+            log.warning(
+                "%s failed again (%d in a row): %s; next try in %.1f s",
+                name, health.failures, what, delay,
+            )  # fmt: skip
 
     def shutdown(self) -> None:
         """Stop the threads, then write what is only in memory."""

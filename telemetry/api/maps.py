@@ -21,7 +21,6 @@ from telemetry.api.views import FixSerializer, time_param
 from telemetry.models import Fix, SensorChannel
 from telemetry.overview import BATTERY
 from telemetry.selectors import fix_nearest
-from telemetry.services import track_overview_refresh
 from telemetry.simplify import MIN_POINTS
 from telemetry.track import Track, gap_seconds, series, track
 from vessels.models import Vessel
@@ -146,7 +145,6 @@ class VesselTrackView(VesselReadView):
             high=TRACK_MAX_POINTS,
         )  # fmt: skip
         vessel = self.vessel()
-        track_overview_refresh(vessel_id=vessel.pk)
         result = track(vessel=vessel, start=start, end=end, max_points=max_points)
         return _json_response(
             track_geojson(vessel, start, end, result), content_type="application/geo+json"
@@ -211,7 +209,6 @@ class VesselSeriesView(VesselReadView):
             request, "buckets", default=SERIES_DEFAULT_BUCKETS, low=1, high=SERIES_MAX_BUCKETS
         )
         vessel = self.vessel()
-        track_overview_refresh(vessel_id=vessel.pk)
         result = series(vessel=vessel, start=start, end=end, max_buckets=buckets)
         readings = sorted(k for k in result.channels if k != BATTERY)
         meta = channel_meta(readings)

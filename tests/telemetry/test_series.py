@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from telemetry.overview import WIDTHS, cover, merge, summarize
+from telemetry.overview import RAW, WIDTHS, cover, merge, summarize
 from telemetry.series import Downsampler, bucket_count, bucket_width, downsample
 
 
@@ -124,3 +124,33 @@ def test_a_cover_tiles_the_range_with_whole_buckets(start: float, span: float, l
             assert a < b
             if width:
                 assert a % width == 0 and b % width == 0
+
+
+@given(
+    start=st.floats(0, 1e5),
+    span=st.floats(0, 2e4),
+    level=st.integers(-1, len(WIDTHS) - 1),
+    dirty=st.sets(st.integers(0, 2000)),
+)
+def test_a_cover_reads_dirty_minutes_raw_and_no_bucket_over_them(
+    start: float, span: float, level: int, dirty: set[int]
+) -> None:
+    minutes = sorted(m * WIDTHS[0] for m in dirty)
+    pieces = cover(start, start + span, level, minutes)
+    assert bool(pieces) == (start + span > start)
+    if not pieces:
+        return
+    assert pieces[0][1] == start and pieces[-1][2] == start + span
+    for (w1, _a1, b1), (w2, a2, _b2) in zip(pieces, pieces[1:], strict=False):
+        assert b1 == a2
+        assert not w1 == w2 == RAW  # neighbouring raw reads are one read
+    for width, a, b in pieces:
+        assert a < b
+        if width:
+            assert a % width == 0 and b % width == 0
+            assert not any(a <= m < b for m in minutes)
+    raw = [(a, b) for width, a, b in pieces if width == RAW]
+    for m in minutes:
+        lo, hi = max(m, start), min(m + WIDTHS[0], start + span)
+        if lo < hi:
+            assert any(a <= lo and hi <= b for a, b in raw)
