@@ -15,6 +15,11 @@ import re
 from typing import Any
 
 NUL_MESSAGE = "Null characters are not allowed."
+# How deeply a stored JSON value may nest. The deepest the boats send is a mission's params
+# (params → items → item → value: 3); the SMS language's parsed is shallower. Deeper values
+# are refused here because the JSON parser takes nesting the ORM's encoder then cannot write
+# (about 890 levels: a RecursionError, a 500 that cost the rest of a batch).
+JSON_MAX_DEPTH = 32
 _SURROGATE = re.compile("[\ud800-\udfff]")
 
 
@@ -30,12 +35,15 @@ def unstorable(text: str) -> str | None:
 def json_unstorable(value: Any) -> str | None:
     """Why a parsed JSON value cannot be stored, naming where (``[0].k``), or None.
 
-    Every string is checked, object keys included. A loop over a stack rather than recursion:
-    the JSON parser allows nesting deeper than Python's recursion limit would.
+    Every string is checked, object keys included, and the nesting is at most JSON_MAX_DEPTH.
+    A loop over a stack rather than recursion: the JSON parser allows nesting deeper than
+    Python's recursion limit would.
     """
-    stack: list[tuple[str, Any]] = [("", value)]
+    stack: list[tuple[str, Any, int]] = [("", value, 0)]
     while stack:
-        where, item = stack.pop()
+        where, item, depth = stack.pop()
+        if depth >= JSON_MAX_DEPTH and isinstance(item, dict | list):
+            return f"{where or 'value'}: nested deeper than {JSON_MAX_DEPTH} levels"
         if isinstance(item, str):
             if problem := unstorable(item):
                 return f"{where or 'value'}: {problem}"
@@ -45,10 +53,13 @@ def json_unstorable(value: Any) -> str | None:
                     return f"key '{shown(str(key))}'{f' in {where}' if where else ''}: {problem}"
             # Reversed onto the stack: the first problem in reading order is the one named.
             stack.extend(
-                (f"{where}.{k}" if where else str(k), v) for k, v in reversed(item.items())
+                (f"{where}.{k}" if where else str(k), v, depth + 1)
+                for k, v in reversed(item.items())
             )
         elif isinstance(item, list):
-            stack.extend((f"{where}[{i}]", v) for i, v in reversed(list(enumerate(item))))
+            stack.extend(
+                (f"{where}[{i}]", v, depth + 1) for i, v in reversed(list(enumerate(item)))
+            )
     return None
 
 

@@ -200,6 +200,22 @@ def test_parsed_holding_nul_or_a_lone_surrogate_is_rejected_by_index_and_the_res
     assert set(SmsMessage.objects.values_list("origin_id", flat=True)) == {"a", "c"}
 
 
+def test_parsed_nested_past_its_limit_is_rejected_by_index_and_the_rest_stored(glider, glider_boat):
+    """892 levels parse (the parser's limit is about 900) but the ORM could not encode them: a
+    RecursionError 500 that lost the entry after it, on every re-send of the glider's upload."""
+    deep: list = ["x"]
+    for _ in range(891):
+        deep = [deep]
+    body = json.dumps([entry("a"), entry("deep", parsed=[{"k": deep}]), entry("c")])
+    for _ in range(2):
+        answer = glider_boat.post(SMS, body, content_type="application/json")
+        assert answer.status_code == 200
+        (rejected,) = answer.json()["rejected"]
+        assert rejected["index"] == 1
+        assert "nested deeper than" in rejected["errors"]["parsed"][0]
+    assert set(SmsMessage.objects.values_list("origin_id", flat=True)) == {"a", "c"}
+
+
 def test_parsed_over_its_size_limit_is_rejected_naming_the_limit(glider, glider_boat):
     big = [{"text": "x" * 1000} for _ in range(PARSED_MAX_BYTES // 1000 + 1)]
     body = glider_boat.post(SMS, [entry("big", parsed=big), entry("ok")], format="json").json()

@@ -6,7 +6,7 @@ from typing import Any
 
 import pytest
 
-from vessels.text import json_size, json_unstorable, shown, unstorable
+from vessels.text import JSON_MAX_DEPTH, json_size, json_unstorable, shown, unstorable
 
 
 @pytest.mark.parametrize(
@@ -40,11 +40,21 @@ def test_json_unstorable_names_where_the_first_problem_is(value: Any, where: str
     assert found == where if where is None else found.startswith(where)
 
 
-def test_json_unstorable_walks_deeper_than_the_recursion_limit() -> None:
-    deep: Any = "\x00"
+def test_json_unstorable_refuses_nesting_past_its_limit_without_recursing() -> None:
+    # 5,000 levels: past Python's recursion limit, which a recursive walk would hit.
+    deep: Any = "ok"
     for _ in range(5000):
         deep = [deep]
-    assert json_unstorable(deep) == "[0]" * 5000 + ": Null characters are not allowed."
+    limit = JSON_MAX_DEPTH
+    assert json_unstorable(deep) == "[0]" * limit + f": nested deeper than {limit} levels"
+
+
+def test_json_unstorable_takes_nesting_up_to_its_limit() -> None:
+    deep: Any = {"k": "ok"}
+    for _ in range(JSON_MAX_DEPTH - 1):
+        deep = [deep]
+    assert json_unstorable(deep) is None
+    assert json_unstorable([deep]) is not None
 
 
 def test_json_size_counts_compact_utf8() -> None:
