@@ -15,6 +15,7 @@ from django.db.models import QuerySet
 from django.http import Http404, HttpRequest, HttpResponse, HttpResponseNotAllowed
 from django.shortcuts import redirect
 from django.urls import path, reverse
+from django.utils.dateparse import parse_datetime
 from django.utils.html import format_html, format_html_join
 
 from commands.admin import CommandAdmin
@@ -146,8 +147,19 @@ class FleetMissionAdmin(MissionAdmin):
             raise Http404
         try:
             confirmed = json.loads(request.POST.get("confirmed") or "null")
-        except ValueError:
+        except (ValueError, RecursionError):
             confirmed = None
+        # The version the page showed: someone else's save since (another route, another
+        # vessel) must not go out under this page's summary.
+        shown_at = parse_datetime(request.POST.get("updated_at") or "")
+        stale = (
+            missions.saved_since(mission.updated_at, shown_at)
+            if shown_at
+            else "not sent: the page did not say which version of the mission it showed; reload it"
+        )
+        if stale:
+            messages.error(request, f"{mission}: {stale}")
+            return redirect("admin:vessels_mission_change", mission.pk)
         try:
             command = mission_send(
                 mission=mission,

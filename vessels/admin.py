@@ -457,6 +457,8 @@ class MissionAdmin(admin.ModelAdmin):
             raise PermissionDenied
         try:
             route = _planner_route(json.loads(request.body), user=request.user)
+        except RecursionError:  # nested past the JSON parser's depth: no route is
+            return JsonResponse({"detail": "not a route: nested too deeply"}, status=400)
         except (ValueError, TypeError) as exc:
             return JsonResponse({"detail": f"not a route: {exc}"}, status=400)
         review = mission_review(mission=Mission(end=route["end"]), **route)

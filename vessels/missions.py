@@ -12,6 +12,7 @@ after, until the next change.
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
@@ -292,11 +293,25 @@ def mismatch(items: Sequence[Mapping[str, Any]], end: str, *, shown: Any) -> str
     return None
 
 
+def saved_since(saved_at: dt.datetime, seen: dt.datetime | None) -> str | None:
+    """Why a send must not go out: the mission was saved (its route, its vessel) after the
+    version the caller read (``seen``), or None when it was not, or nothing was named. The
+    API's send and the mission page's Send both ask, so what goes out is what was seen."""
+    if seen is None or seen == saved_at:
+        return None
+    return (
+        f"not sent: the mission was saved at {saved_at.isoformat()}, after the version you "
+        "read; read it again and send"
+    )
+
+
 def _same_item(a: Mapping[str, Any], b: Mapping[str, Any]) -> bool:
     try:
         if not _same_point(a, b):
             return False
-    except (KeyError, TypeError):
+    except (KeyError, TypeError, ValueError, OverflowError):
+        # Not a route a page could show (a missing field, a string, an infinite or NaN
+        # coordinate): not the saved one, never a 500.
         return False
     return all(
         (a.get(name) or 0) == (b.get(name) or 0) for name in ("hold_s", "radius_m", "speed_mps")

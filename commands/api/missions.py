@@ -17,6 +17,7 @@ from rest_framework.views import APIView
 from commands.api.operator import CommandSerializer
 from commands.models import Command, Source
 from commands.services import mission_send
+from vessels.missions import saved_since
 from vessels.models import Vessel
 from vessels.permissions import CanViewVessels, ModelPermissions
 from vessels.selectors import missions_visible_to
@@ -53,16 +54,9 @@ class MissionSendView(APIView):
         mission = get_object_or_404(missions_visible_to(request.user), pk=pk)
         incoming = MissionSendSerializer(data=request.data)
         incoming.is_valid(raise_exception=True)
-        seen = incoming.validated_data.get("updated_at")
-        if seen is not None and seen != mission.updated_at:
-            raise serializers.ValidationError(
-                {
-                    "updated_at": [
-                        f"not sent: the mission was saved at {mission.updated_at.isoformat()}, "
-                        "after the version you read; read it again and send"
-                    ]
-                }
-            )
+        stale = saved_since(mission.updated_at, incoming.validated_data.get("updated_at"))
+        if stale:
+            raise serializers.ValidationError({"updated_at": [stale]})
         command = mission_send(
             mission=mission,
             vessel=incoming.validated_data.get("vessel"),

@@ -28,8 +28,12 @@ def five_waypoints(vessel: Vessel) -> Mission:
     return mission_save_items(mission=mission, items=[{"lat": a, "lon": b} for a, b in points])
 
 
-def send(client: Client, mission: Mission, confirmed: object) -> str:
+def send(client: Client, mission: Mission, confirmed: object, shown_at: str | None = "") -> str:
+    """Post the page's Send form: the route it showed, and the version it was rendered from
+    (by default the mission's current one, as a page loaded just now)."""
     body = {} if confirmed is None else {"confirmed": json.dumps(confirmed)}
+    if shown_at is not None:
+        body["updated_at"] = shown_at or Mission.objects.get(pk=mission.pk).updated_at.isoformat()
     answer = client.post(f"/admin/vessels/mission/{mission.pk}/send/", body, follow=True)
     assert answer.status_code == 200
     return answer.content.decode()
@@ -49,6 +53,46 @@ def test_a_send_of_a_route_other_than_the_saved_one_is_refused_and_nothing_is_qu
     page = send(admin_ui, mission, {"end": "stop", "items": mission.item_dicts()})
     assert "queued as command" in page
     assert len(Command.objects.get().params["items"]) == 5
+
+
+def test_a_send_from_a_page_older_than_the_last_save_is_refused(
+    admin_ui: Client, reported: Vessel, vessel_b: Vessel
+) -> None:
+    """The page's summary said "Send to SPAB"; someone else then moved the mission to SPAB 2
+    with the same route. The route matches, yet the send must not go out under that summary."""
+    mission = five_waypoints(reported)
+    page = admin_ui.get(f"/admin/vessels/mission/{mission.pk}/change/").content.decode()
+    mission.refresh_from_db()
+    shown_at = mission.updated_at.isoformat()
+    assert f'name="updated_at" value="{shown_at}"' in page
+    mission.vessel = vessel_b
+    mission_save(mission=mission)
+    route = {"end": "stop", "items": mission.item_dicts()}
+    answer = send(admin_ui, mission, route, shown_at=shown_at)
+    assert "not sent: the mission was saved at" in answer
+    assert "did not say which version" in send(admin_ui, mission, route, shown_at=None)
+    assert not Command.objects.exists()
+    assert "queued as command" in send(admin_ui, mission, route)
+    assert Command.objects.get().vessel == vessel_b
+
+
+@pytest.mark.parametrize(
+    "item",
+    [
+        {"lat": 1e308, "lon": 115.86},
+        {"lat": "x", "lon": 115.86},
+        {"lat": float("nan"), "lon": 115.86},
+        {"lon": 115.86},
+    ],
+)
+def test_a_malformed_confirmed_route_is_refused_not_a_500(
+    admin_ui: Client, reported: Vessel, item: dict
+) -> None:
+    mission = five_waypoints(reported)
+    items = [item, *mission.item_dicts()[1:]]
+    page = send(admin_ui, mission, {"end": "stop", "items": items})
+    assert "waypoint 1 on screen is not waypoint 1 as saved" in page
+    assert not Command.objects.exists()
 
 
 def test_the_send_button_carries_a_summary_to_confirm(admin_ui: Client, reported: Vessel) -> None:
