@@ -17,6 +17,13 @@ from commands.models import Command, CommandEvent, Source
 from commands.services import command_cancel, command_enqueue
 
 
+def status_badge(status: str) -> str:
+    """A status in its colour (commands/status.css, which the page must load): done green,
+    failed red, the neutral ends grey. The command list, a command's page and the vessel's
+    recent commands show it alike."""
+    return format_html('<span class="command-status cmd-{}">{}</span>', status, status)
+
+
 class CommandEventInline(admin.TabularInline):
     model = CommandEvent
     extra = 0
@@ -121,9 +128,7 @@ class CommandAdmin(admin.ModelAdmin):
     def status_badge(self, command: Command) -> str:
         """The status in its colour (commands/status.css): done green, failed red, the
         neutral ends grey (superseded: the boat or the queue replaced it with a newer one)."""
-        return format_html(
-            '<span class="command-status cmd-{}">{}</span>', command.status, command.status
-        )
+        return status_badge(command.status)
 
     @admin.display(description="params")
     def params_summary(self, command: Command) -> str:

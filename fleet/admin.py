@@ -18,7 +18,7 @@ from django.urls import path, reverse
 from django.utils.dateparse import parse_datetime
 from django.utils.html import format_html, format_html_join
 
-from commands.admin import CommandAdmin
+from commands.admin import CommandAdmin, status_badge
 from commands.errors import CommandError
 from commands.models import Command, Source
 from commands.services import mission_problems, mission_send
@@ -40,6 +40,9 @@ class FleetVesselAdmin(VesselAdmin):
         *VesselAdmin.fieldsets,
         ("Recent activity", {"fields": ["recent_fixes", "recent_commands"]}),
     ]
+
+    class Media:
+        css = {"all": ["commands/status.css"]}  # the recent commands' status badges
 
     @admin.display(description="recent fixes")
     def recent_fixes(self, vessel: Vessel) -> str:
@@ -77,7 +80,7 @@ class FleetVesselAdmin(VesselAdmin):
                     fmt_time(c.created_at),
                     reverse("admin:commands_command_change", args=[c.pk]),
                     c.kind,
-                    c.status,
+                    status_badge(c.status),
                     c.get_source_display(),
                     c.result_detail[:80],
                 )

@@ -23,3 +23,6 @@ ROVER_MODES: dict[str, int] = {
     "SMART_RTL": 12,
     "GUIDED": 15,
 }
+# The mode Rover reports while it boots (mode.h `INITIALISING = 16`): never asked for, so not
+# in the catalog's table, but a fix sent during start-up carries it and the pages name it.
+ROVER_MODE_INITIALISING = 16

@@ -258,7 +258,9 @@ def send_confirmation(
 ) -> str:
     """What an operator confirms before a send: the waypoints, distance and time (the
     review's totals), how far the vessel's last fix is from waypoint 1, and the end."""
-    if last_fix is None or not items:
+    if not items:
+        where = "it has no waypoints"
+    elif last_fix is None:
         where = f"{vessel_name} has no position yet"
     else:
         gap = distance_m(last_fix[0], last_fix[1], items[0]["lat"], items[0]["lon"])

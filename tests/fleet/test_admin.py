@@ -25,6 +25,9 @@ def test_the_vessel_page_shows_keys_recent_fixes_and_commands(
     assert "2026-11-23 10:00:00" in page
     assert "hold" in page and "queued" in page
     assert "<th>source</th>" in page and "<td>Map</td>" in page
+    # The status in the colour the command list and the map give it (superseded grey).
+    assert '<span class="command-status cmd-queued">queued</span>' in page
+    assert "commands/status.css" in page
 
 
 def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(

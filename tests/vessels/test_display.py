@@ -72,8 +72,15 @@ def test_numbers_are_short() -> None:
 
 def test_the_mode_names_are_the_catalogs_rover_modes() -> None:
     states = STATE_CHANNELS["mode_number"]["states"]
-    assert states == {number: name for name, number in catalog.ROVER_MODES.items()}
+    assert states == {number: name for name, number in catalog.ROVER_MODES.items()} | {
+        16: "INITIALISING"
+    }
     assert (states[4], states[10], states[15]) == ("HOLD", "AUTO", "GUIDED")
+
+
+def test_the_boot_mode_rover_reports_is_named_though_nobody_may_ask_for_it() -> None:
+    assert fmt_reading("mode_number", 16, {}) == "Mode INITIALISING"
+    assert "INITIALISING" not in catalog.ROVER_MODES
 
 
 def test_readings_are_labelled_and_states_named() -> None:

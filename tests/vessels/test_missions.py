@@ -188,3 +188,15 @@ def test_the_send_confirmation_sums_up_the_route_and_the_distance_from_the_boat(
         "Send to SPAB: 2 waypoints · 900 m · 10 min. SPAB's last fix is 300 m from waypoint 1; "
         "then it returns home."
     )
+
+
+def test_the_send_confirmation_of_no_waypoints_says_so_not_that_the_boat_has_no_fix() -> None:
+    review = missions.review([], cruise_speed_mps=1.5)
+    text = missions.send_confirmation(
+        review, items=[], end="stop", vessel_name="SPAB", last_fix=FREMANTLE
+    )
+    assert "it has no waypoints" in text and "no position" not in text
+    no_fix = missions.send_confirmation(
+        review, items=route(300), end="stop", vessel_name="SPAB", last_fix=None
+    )
+    assert "SPAB has no position yet" in no_fix
