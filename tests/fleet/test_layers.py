@@ -77,14 +77,18 @@ PURE = [
     "sms/level2/codec.py",
     "sms/level2/framing.py",
     "sms/level2/bodies.py",
+    "sms/level2/enumeration.py",
+    "sms/level2/fields.py",
     "sms/level2/inner.py",
     "sms/level2/payload.py",
     "sms/bridge/records.py",
     "sms/bridge/machine.py",
     "sms/bridge/shore_config.py",
     "sms/modem/at.py",
+    "sms/modem/error_codes.py",
     "sms/modem/errors.py",
     "edge_client/catalog.py",
+    "edge_client/commands.py",
     "edge_client/geo.py",
     "edge_client/mission.py",
 ]
@@ -175,3 +179,19 @@ def test_no_module_imports_itself_back() -> None:
     graph = {name: imported_modules(name, path, modules) for name, path in modules.items()}
     assert "commands.errors" in graph["commands.lifecycle"]  # the graph was read
     assert import_cycles(graph) == []
+
+# -- module size -------------------------------------------------------------------------------
+MAX_LINES = 600
+# Over the limit for now, split by issue 17 item 3 ("services split"), which removes them here.
+TOO_LONG_FOR_NOW = {"commands/services.py", "sms/services.py"}
+
+
+def test_no_module_is_over_600_lines() -> None:
+    sizes = {
+        str(path.relative_to(ROOT)): len(path.read_text().splitlines())
+        for path in [*ROOT.glob("*.py"), *project_modules().values()]
+    }  # tests are not modules of the project; nothing vendored is Python
+    assert "edge_client/executor.py" in sizes  # the project was read
+    long = {path: n for path, n in sizes.items() if n > MAX_LINES}
+    assert long.keys() - TOO_LONG_FOR_NOW == set(), long
+    assert TOO_LONG_FOR_NOW <= long.keys()  # split already: take it off the list
