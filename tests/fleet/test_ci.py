@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -21,6 +23,7 @@ def sqlite_test_command() -> list[str]:
     raise AssertionError(".ci/run runs no scripts/test.sh on SQLite")
 
 
+@pytest.mark.slow  # a pytest of its own under coverage: a few seconds
 def test_ci_measures_coverage_and_prints_the_total(tmp_path: Path) -> None:
     ci = (ROOT / ".ci" / "run").read_text()
     assert "coverage report --format=total" in ci
