@@ -208,7 +208,9 @@ def main(argv: list[str] | None = None) -> int:
     def inject() -> None:
         stamps.times.clear()
         modem.arrived = time.perf_counter()
-        modem.inject(NUMBER, "#FHEAD 230")
+        # A new heading each round: the same text from the same phone in the same second (the
+        # modem's time stamp has whole seconds) is a re-delivery, and its round would be lost.
+        modem.inject(NUMBER, round_text(len(arrivals)))
         while "SMS in" not in stamps.times:
             time.sleep(0.001)
 
@@ -253,6 +255,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     show("C&C ACK → reply SMS handed to the modem (AT+CMGS)", bridge_ack, bare_ack)
     return 0
+
+
+def round_text(round_: int) -> str:
+    """The SMS of one round: a heading command, different in every round of a run."""
+    return f"#FHEAD {(230 + round_) % 360}"
 
 
 def connection_name() -> str:

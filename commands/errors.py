@@ -7,11 +7,6 @@ into HTTP answers and form errors; views and admin actions do not catch them one
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from commands.lifecycle import Status
-
 
 class CommandError(ValueError):
     """A command request that cannot be carried out; ``message`` says why, ``field`` where."""
@@ -36,7 +31,9 @@ class CommandNotFound(CommandError):
 class TransitionError(CommandError):
     """The command's status cannot move to ``target`` from where it is (DESIGN §4)."""
 
-    def __init__(self, current: Status, target: Status) -> None:
+    # ``str``, not ``commands.lifecycle.Status`` (a StrEnum, so a str): the lifecycle raises this
+    # error, and naming its enum here would tie the two modules into an import cycle.
+    def __init__(self, current: str, target: str) -> None:
         if target == "cancelled":
             message = f"command is {current}; it can no longer be cancelled"
         else:

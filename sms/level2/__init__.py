@@ -1,9 +1,10 @@
 """Wave Glider "Level 2" payload serial protocol: codec, framing, payload machine, simulator.
 
 Protocol facts and open questions: ../shared/protocols/level2.md. Layers (STYLE.md §7):
-``codec`` (frames, CRC, escaping), ``bodies`` (typed bodies, coordinates), ``framing``
-(incremental decoder), ``inner`` + ``inner_commands.toml`` (the inner command table),
-``payload`` (the payload state machine), ``simulator`` (the C&C master side) are pure;
+``codec`` (frames, CRC, escaping), ``bodies`` (typed bodies, with ``enumeration`` and
+``fields``, the coordinates, split from it), ``framing`` (incremental decoder), ``inner`` +
+``inner_commands.toml`` (the inner command table), ``payload`` (the payload state machine),
+``simulator`` (the C&C master side) are pure;
 ``runner`` is the only module that opens ports; ``cli`` is ``python -m sms.level2``.
 Nothing here imports Django.
 """

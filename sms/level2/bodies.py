@@ -1,4 +1,4 @@
-"""Typed Level 2 bodies and coordinate helpers. Pure, no I/O.
+"""Typed Level 2 bodies. Pure, no I/O.
 
 References (../shared/protocols/level2.md):
 * §8.1 enumerate, §8.2 enumeration reply and the 42-byte device information block,
@@ -8,9 +8,10 @@ References (../shared/protocols/level2.md):
 * §8.6 ACK/NAK queued message (command format, u16 response code, inner packet),
 * §8.7 generic ACK/NAK, §11.1 the inner command packet, §11.2 the C&C's inner response.
 
-Every body has ``from_bytes`` (raises :class:`BodyError` on a short or inconsistent body) and
-``__bytes__``; :func:`parse_body` picks the class from the frame; anything unknown stays
-:class:`RawBody` so nothing is lost.
+The enumeration bodies (§8.1, §8.2) live in :mod:`.enumeration`, the coordinate helpers in
+:mod:`.fields`; both are offered here too. Every body has ``from_bytes`` (raises
+:class:`BodyError` on a short or inconsistent body) and ``__bytes__``; :func:`parse_body` picks
+the class from the frame; anything unknown stays :class:`RawBody` so nothing is lost.
 """
 
 from __future__ import annotations
@@ -21,159 +22,17 @@ from datetime import UTC, datetime
 from enum import IntEnum
 
 from .codec import NO_ACK_BIT, TYPE_MASK, Frame, MessageType, crc16_arc, type_name
+from .enumeration import ACFR_DEVICE_BLOCK_SIZE as ACFR_DEVICE_BLOCK_SIZE
+from .enumeration import DEVICE_BLOCK_SIZE as DEVICE_BLOCK_SIZE
+from .enumeration import DeviceInfo as DeviceInfo
+from .enumeration import Enumerate, EnumerationReply
+from .enumeration import ExtraInfo as ExtraInfo
 from .errors import BodyError, LocalProtocolError
-
-# --- coordinates (§8.3) -------------------------------------------------------------------
-
-UNITS_PER_DEGREE = 600_000  # §8.3: minutes × 10⁴, i.e. decimal degrees × 600000
-
-
-def degrees_to_l2(degrees: float, *, limit: float = 180.0) -> int:
-    """Decimal degrees → the protocol's signed minutes × 10⁴ integer (§8.3).
-
-    South and west are negative; degrees and minutes share the sign, so rounding
-    ``degrees × 600000`` gives the same integer as the handbook's composition.
-    """
-    if not -limit <= degrees <= limit:
-        raise LocalProtocolError(f"{degrees} is outside ±{limit} degrees")
-    return round(degrees * UNITS_PER_DEGREE)
-
-
-def l2_to_degrees(value: int) -> float:
-    """The protocol's minutes × 10⁴ integer → decimal degrees (§8.3)."""
-    return value / UNITS_PER_DEGREE
-
-
-def format_l2(value: int, positive: str, negative: str) -> str:
-    """36°48.1669'N style text of a minutes × 10⁴ value, as the protocol page writes them."""
-    hemi = positive if value >= 0 else negative
-    value = abs(value)
-    return f"{value // UNITS_PER_DEGREE}°{(value % UNITS_PER_DEGREE) / 10_000:.4f}'{hemi}"
-
-
-def _need(data: bytes, size: int, what: str) -> None:
-    if len(data) < size:
-        raise BodyError(f"{what}: {len(data)} bytes, need {size}")
-
-
-def _text(raw: bytes) -> str:
-    return raw.decode("ascii", "replace")
-
-
-# --- enumerate (§8.1, §8.2) -----------------------------------------------------------------
-
-
-@dataclass(frozen=True, slots=True)
-class Enumerate:
-    """Request ID / enumerate body: protocols and command formats bit masks, both 1 (§8.1)."""
-
-    protocols: int = 1
-    formats: int = 1
-
-    @classmethod
-    def from_bytes(cls, data: bytes) -> Enumerate:
-        _need(data, 4, "enumerate")
-        return cls(*struct.unpack_from("<HH", data))
-
-    def __bytes__(self) -> bytes:
-        return struct.pack("<HH", self.protocols, self.formats)
-
-
-DEVICE_BLOCK_SIZE = 42  # §8.2 [CAP, GOBY]; ACFR's 50 adds 8 zero bytes, tolerated on input
-ACFR_DEVICE_BLOCK_SIZE = 50
-_DEVICE = struct.Struct("<HHBB6sBIBBBH20s")
-assert _DEVICE.size == DEVICE_BLOCK_SIZE
-
-
-class ExtraInfo:
-    """Extra-info flag bits of the device block (§8.2, [SRC:GOBY; SRC:PC notes])."""
-
-    TELEMETRY = 0x01
-    POWER = 0x02
-    EVENTS = 0x04
-    COMMAND_ACK = 0x08
-
-
-@dataclass(frozen=True, slots=True)
-class DeviceInfo:
-    """The 42-byte device information block (§8.2); defaults are the real PIB's values."""
-
-    version: int = 1
-    device_type: int = 0x0001
-    task: int = 0x00
-    board: int = 0x01
-    serial: bytes = b"123456"
-    location: int = 0
-    poll_period_s: int = 20
-    flags: int = 0
-    fw_major: int = 2
-    fw_minor: int = 1
-    fw_revision: int = 0x0180
-    description: bytes = b"Full PIB".ljust(20)
-    extra: bytes = b""  # ACFR's 8 trailing bytes, kept so the block round-trips
-
-    @classmethod
-    def from_bytes(cls, data: bytes) -> DeviceInfo:
-        _need(data, DEVICE_BLOCK_SIZE, "device block")
-        return cls(*_DEVICE.unpack_from(data), extra=bytes(data[DEVICE_BLOCK_SIZE:]))
-
-    def __bytes__(self) -> bytes:
-        if len(self.serial) != 6 or len(self.description) != 20:
-            raise LocalProtocolError("serial must be 6 bytes and description 20 bytes (§8.2)")
-        try:
-            return (
-                _DEVICE.pack(
-                    self.version,
-                    self.device_type,
-                    self.task,
-                    self.board,
-                    self.serial,
-                    self.location,
-                    self.poll_period_s,
-                    self.flags,
-                    self.fw_major,
-                    self.fw_minor,
-                    self.fw_revision,
-                    self.description,
-                )
-                + self.extra
-            )
-        except struct.error as exc:
-            raise LocalProtocolError(f"device block field out of range: {exc}") from exc
-
-    @staticmethod
-    def pad_description(text: str) -> bytes:
-        """ASCII, padded with spaces to 20 bytes as the real PIB does (§8.2, §13)."""
-        raw = text.encode("ascii")
-        if len(raw) > 20:
-            raise LocalProtocolError("description is longer than 20 characters")
-        return raw.ljust(20)
-
-
-@dataclass(frozen=True, slots=True)
-class EnumerationReply:
-    """ACK body answering enumerate: orig type 0x0010, counts, device blocks (§8.2)."""
-
-    devices: tuple[DeviceInfo, ...]
-    total: int = 1
-
-    @classmethod
-    def from_bytes(cls, data: bytes) -> EnumerationReply:
-        _need(data, 6, "enumeration reply")
-        orig, total, count = struct.unpack_from("<HHH", data)
-        rest = data[6:]
-        if count == 0 or len(rest) % count:
-            raise BodyError(f"enumeration reply: {len(rest)} bytes for {count} device blocks")
-        size = len(rest) // count
-        if size not in (DEVICE_BLOCK_SIZE, ACFR_DEVICE_BLOCK_SIZE):
-            raise BodyError(f"enumeration reply: device blocks of {size} bytes")
-        blocks = tuple(DeviceInfo.from_bytes(rest[i : i + size]) for i in range(0, len(rest), size))
-        return cls(blocks, total)
-
-    def __bytes__(self) -> bytes:
-        head = struct.pack("<HHH", MessageType.ENUMERATE, self.total, len(self.devices))
-        return head + b"".join(bytes(d) for d in self.devices)
-
+from .fields import UNITS_PER_DEGREE as UNITS_PER_DEGREE
+from .fields import ascii_text as _text
+from .fields import degrees_to_l2, format_l2
+from .fields import l2_to_degrees as l2_to_degrees
+from .fields import need_bytes as _need
 
 # --- status (§8.3, §8.4) -------------------------------------------------------------------
 

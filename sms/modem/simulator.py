@@ -32,7 +32,7 @@ from datetime import UTC, datetime
 
 from sms import gsm7
 
-from .at import CMS_ERRORS
+from .error_codes import CMS_ERRORS
 
 log = logging.getLogger(__name__)
 

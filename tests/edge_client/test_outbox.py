@@ -97,37 +97,60 @@ def test_old_finished_commands_are_forgotten(outbox):
     assert outbox.command_claim("running", "move_to") is False
 
 
+# The writer stops itself in the middle of a transaction, at a chosen statement, once the box
+# is full (so evictions run), says so, and waits there to be killed: the kill lands mid-write
+# every time, not when a sleep happens to end. It reports the last fix it knows committed.
 WRITER = """
-import sys
+import sys, threading
 from edge_client.outbox import Outbox
-box = Outbox(sys.argv[1], max_fixes=200, commit_every=int(sys.argv[2]))
+box = Outbox(sys.argv[1], max_fixes=50, commit_every=int(sys.argv[2]))
+stop_at = sys.argv[3]
+committed = -1
+
+def trace(sql):
+    if " ".join(sql.split()).startswith(stop_at):
+        print("stopped", committed, int(box._db.in_transaction), flush=True)
+        threading.Event().wait()  # until SIGKILL
+
 print("open", flush=True)
-n = 0
-while True:
+for n in range(10_000):
+    if n == 60:
+        box._db.set_trace_callback(trace)
     box.add_fix({"time": n, "lat": 1.0, "lon": 2.0, "readings": {"pad": "x" * 300}})
     if n % 7 == 0:
         box.add_ack(f"u{n}", "done", "y" * 200)
-    n += 1
+    if not box._pending:
+        committed = n
+print("never stopped", flush=True)
 """
+FIX_INSERT = "INSERT INTO outbox (kind, body, created_at) VALUES ('fix'"
 
 
-@pytest.mark.parametrize(("delay", "commit_every"), [(0.05, 1), (0.2, 1), (0.5, 1), (0.2, 5)])
-def test_killing_the_process_mid_write_corrupts_nothing(tmp_path, delay, commit_every):
+@pytest.mark.parametrize(
+    ("stop_at", "commit_every"),
+    [(FIX_INSERT, 1), ("DELETE FROM outbox", 1), ("COMMIT", 1), ("DELETE FROM outbox", 5)],
+    ids=["insert", "evict", "commit", "evict-group"],
+)
+def test_killing_the_process_mid_write_corrupts_nothing(tmp_path, stop_at, commit_every):
     path = tmp_path / "o.sqlite3"
-    proc = subprocess.Popen([sys.executable, "-c", WRITER, str(path), str(commit_every)],
+    proc = subprocess.Popen([sys.executable, "-c", WRITER, str(path), str(commit_every), stop_at],
                             stdout=subprocess.PIPE, cwd=os.getcwd())  # fmt: skip
-    assert proc.stdout.readline() == b"open\n"
-    time.sleep(delay)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    try:
+        assert proc.stdout.readline() == b"open\n"
+        word, committed, in_transaction = proc.stdout.readline().split()
+        assert (word, in_transaction) == (b"stopped", b"1")  # killed inside a transaction
+    finally:
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
     db = sqlite3.connect(path)
     assert db.execute("PRAGMA integrity_check").fetchone() == ("ok",)
     db.close()
-    box = Outbox(path, max_fixes=200)
+    box = Outbox(path, max_fixes=50)
     fixes = box.peek("fix", 1000)
-    assert 0 < len(fixes) <= 200
+    assert len(fixes) == 50  # full, as it was when the kill came
     times = [f.body["time"] for f in fixes]
     assert times == list(range(times[0], times[0] + len(times)))  # contiguous, newest kept
+    assert times[-1] == int(committed)  # every commit kept, nothing of the killed one
     assert box.counter("evicted_fixes") == times[0]  # every eviction was counted
     box.add_fix(fix(1))  # and it is still writable
     box.close()
