@@ -178,11 +178,13 @@ def test_the_mission_page_sends_the_saved_mission_to_its_vessel(
     )
     html = admin_ui.get(f"/admin/vessels/mission/{mission.pk}/change/").content.decode()
     assert "Send to SPAB" in html
-    # What the button's form posts: the route on screen as planner.js confirmed it.
+    # What the button's form posts: the route on screen as planner.js confirmed it, and the
+    # version of the mission the page was rendered from.
     shown = {"end": "stop", "items": mission.item_dicts()}
+    mission.refresh_from_db()
     answer = admin_ui.post(
         f"/admin/vessels/mission/{mission.pk}/send/",
-        {"confirmed": json.dumps(shown)},
+        {"confirmed": json.dumps(shown), "updated_at": mission.updated_at.isoformat()},
         follow=True,
     )
     assert "queued as command" in answer.content.decode()
