@@ -130,8 +130,8 @@ class SmsMessage(models.Model):
             # The admin's log, newest first, all vessels or one.
             models.Index(fields=["-created_at"], name="sms_created_desc"),
             models.Index(fields=["vessel", "-created_at"], name="sms_vessel_created"),
-            # Rate limiting (sms.services._rate_limited_until): one number's incoming messages
-            # in a time window that count, the ones it held back left out.
+            # Rate limiting (sms.services.incoming._rate_limited_until): one number's incoming
+            # messages in a time window that count, the ones it held back left out.
             models.Index(
                 fields=["number_e164", "received_at"],
                 condition=Q(direction="in") & ~Q(outcome="rate_limited"),
