@@ -72,8 +72,11 @@ class SendStatus(models.TextChoices):
 class SmsMessage(models.Model):
     direction = models.CharField(max_length=3, choices=Direction.choices)
     vessel = models.ForeignKey(Vessel, on_delete=models.CASCADE, related_name="sms_messages")
+    # Blank: a modem may report no sender at all; that SMS is logged as a stranger's.
     number = models.CharField(
-        max_length=RAW_NUMBER_MAX, help_text="As the modem reported it (sender or recipient)."
+        max_length=RAW_NUMBER_MAX,
+        blank=True,
+        help_text="As the modem reported it (sender or recipient).",
     )
     number_e164 = models.CharField(
         "E.164 number",

@@ -28,6 +28,7 @@ from commands.services.reported import (
     REPORTED_SOURCE_ALIASES,
     REPORTED_SOURCES,
     command_record_reported,
+    command_reports_record,
 )
 
 __all__ = [
@@ -52,6 +53,7 @@ __all__ = [
     "command_mark_sent",
     "command_note",
     "command_record_reported",
+    "command_reports_record",
     "command_validate",
     "command_withdraw_queued",
     "mission_problems",

@@ -5,10 +5,11 @@ from __future__ import annotations
 import datetime as dt
 import logging
 import uuid
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from django.conf import settings
-from django.db import transaction
+from django.db import IntegrityError, transaction
 from django.utils import timezone
 
 from commands import catalog
@@ -16,6 +17,7 @@ from commands.errors import CommandError, TransitionError
 from commands.lifecycle import FINAL, Status, check_transition
 from commands.models import Command, CommandEvent, Source
 from commands.services._transition import _STAMP, _storable_text, _transition
+from vessels.batch import BatchAnswer, Unreadable
 from vessels.clock import check_plausible
 from vessels.models import Vessel
 
@@ -186,3 +188,29 @@ def command_record_reported(
     )
     _advance_reported(command, path, stamps=stamps, detail=detail, now=now)
     return command, True
+
+
+def command_reports_record(
+    *, vessel: Vessel, reports: Sequence[Mapping[str, Any] | Unreadable]
+) -> BatchAnswer:
+    """Mirror a batch of the commands ``vessel`` created itself, each as it stands there now
+    (:func:`command_record_reported`): new or moved forward counts as accepted; repeated,
+    older, or one of the shore's own commands as a duplicate; an unreadable or refused report
+    is rejected by its index, and never costs the others."""
+    answer = BatchAnswer()
+    for index, report in enumerate(reports):
+        if isinstance(report, Unreadable):
+            answer.reject(index, report.errors)
+            continue
+        try:
+            _command, changed = command_record_reported(vessel=vessel, **report)
+        except CommandError as exc:
+            answer.reject(index, exc.as_dict())
+            continue
+        except IntegrityError:
+            changed = False  # the same report racing itself: the other one stored it
+        if changed:
+            answer.accepted += 1
+        else:
+            answer.duplicates += 1
+    return answer

@@ -19,10 +19,18 @@ from sms.services.numbers import (
 )
 from sms.services.outgoing import sms_mark_failed, sms_mark_sent, sms_outgoing_pending
 from sms.services.replies import sms_replies_due
-from sms.services.shore import NumbersReplaced, authorised_numbers_replace, sms_log_entry_store
+from sms.services.shore import (
+    SMS_TIMES,
+    NumbersReplaced,
+    authorised_numbers_replace,
+    sms_log_check,
+    sms_log_entry_store,
+    sms_log_upload,
+)
 
 __all__ = [
     "DETAIL_MAX",
+    "SMS_TIMES",
     "TEXT_STORE_MAX",
     "NumbersReplaced",
     "SmsOutcome",
@@ -33,7 +41,9 @@ __all__ = [
     "number_normalise",
     "shipped_table",
     "sms_handle_incoming",
+    "sms_log_check",
     "sms_log_entry_store",
+    "sms_log_upload",
     "sms_mark_failed",
     "sms_mark_sent",
     "sms_outgoing_pending",

@@ -36,3 +36,18 @@ def _scalar(sql: str, params: Sequence[object]) -> Any:
 
 def _stamp(when: dt.datetime) -> Any:
     return connection.ops.adapt_datetimefield_value(when)
+
+
+# Checked by the database instead (full_clean would read each one back): the foreign keys are
+# rows or ids the services set themselves.
+_RELATIONS = ["vessel", "authorised_number", "reply_to"]
+
+
+def _save_checked(message: SmsMessage) -> SmsMessage:
+    """Save ``message`` after the model's field checks (lengths, choices, blanks): every
+    SmsMessage the services write goes through here. Without a query: the foreign keys are
+    left out (see _RELATIONS), and the constraints (sms_status_for_outgoing_only, the unique
+    keys) are the database's, which refuses a row that breaks one."""
+    message.full_clean(exclude=_RELATIONS, validate_unique=False, validate_constraints=False)
+    message.save()
+    return message

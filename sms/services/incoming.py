@@ -30,6 +30,7 @@ from sms.services._common import (
     _UNSTORABLE,
     DETAIL_MAX,
     TEXT_STORE_MAX,
+    _save_checked,
     _scalar,
     _stamp,
 )
@@ -199,8 +200,7 @@ def _handle(
     )
     commands = [command for _, command in queued]
     message.outcome = Outcome.ERROR if any(a.error for a in answers) else Outcome.ACCEPTED
-    # Built here from bounded values; full_clean() would cost a query per foreign key.
-    message.save()
+    _save_checked(message)
     reply = replying.reply_store(
         message=message,
         entry=entry,
@@ -220,7 +220,7 @@ def _handle(
 def _logged(message: SmsMessage, outcome: Outcome, detail: str = "") -> SmsOutcome:
     message.outcome = outcome
     message.detail = detail[:DETAIL_MAX]
-    message.save()
+    _save_checked(message)
     return SmsOutcome(message=message)
 
 

@@ -19,7 +19,7 @@ from commands.models import Command, CommandEvent
 from sms import language, replies, selectors
 from sms.language import Answer, Item, ItemKind
 from sms.models import AuthorisedNumber, Direction, SendStatus, SmsMessage
-from sms.services._common import _SMS, _scalar
+from sms.services._common import _SMS, _save_checked, _scalar
 from vessels.models import Vessel
 
 _OPEN_STATUSES = frozenset({"queued", "sent", "acknowledged"})
@@ -42,7 +42,7 @@ def reply_store(
     status = SendStatus.PENDING if send_replies else SendStatus.NOT_SENT
     hold = send_replies and reply_window_s > 0 and any(c.status in _OPEN_STATUSES for c in commands)
     received_at = message.received_at
-    return SmsMessage.objects.create(
+    reply = SmsMessage(
         direction=Direction.OUT,
         vessel=message.vessel,
         number=message.number_e164,
@@ -56,6 +56,7 @@ def reply_store(
         status_detail="" if send_replies else "shown by sms_inject, not sent",
         due_at=received_at + dt.timedelta(seconds=reply_window_s) if hold else None,
     )
+    return _save_checked(reply)
 
 
 def answer_item(
@@ -93,7 +94,7 @@ def rate_notice(
     )
     try:
         with transaction.atomic():
-            return SmsMessage.objects.create(
+            notice = SmsMessage(
                 direction=Direction.OUT,
                 vessel=message.vessel,
                 number=message.number_e164,
@@ -108,6 +109,7 @@ def rate_notice(
                 if send_replies
                 else "rate limit notice shown by sms_inject, not sent",
             )
+            return _save_checked(notice)
     except IntegrityError:
         return None  # a concurrent text of the same number sent it
 
@@ -239,7 +241,7 @@ def _release(reply: SmsMessage, text: str) -> int:
 
 
 def _follow_up(reply: SmsMessage, records: list[dict], pks: list[int]) -> None:
-    later = SmsMessage.objects.create(
+    later = SmsMessage(
         direction=Direction.OUT,
         vessel_id=reply.vessel_id,
         number=reply.number,
@@ -252,4 +254,5 @@ def _follow_up(reply: SmsMessage, records: list[dict], pks: list[int]) -> None:
         status=SendStatus.WAITING,
         status_detail="sent when the commands end",
     )
+    _save_checked(later)
     later.commands.set(pks)

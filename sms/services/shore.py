@@ -1,4 +1,5 @@
-"""The shore link (issue 11 §6): the numbers from the shore, the glider's SMS log to it."""
+"""The shore link (issue 11 §6): the numbers from the shore, the glider's SMS log to it (one
+batch, one answer: :func:`sms_log_upload`)."""
 
 from __future__ import annotations
 
@@ -8,20 +9,24 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from django.conf import settings
 from django.core.exceptions import ValidationError
 from django.db import IntegrityError, transaction
+from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
 from commands.models import Command
 from sms.errors import InvalidNumber
-from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Role, SmsMessage
-from sms.services._common import _UNSTORABLE, DETAIL_MAX, TEXT_STORE_MAX
+from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SmsMessage
+from sms.services._common import _UNSTORABLE, DETAIL_MAX, TEXT_STORE_MAX, _save_checked
 from sms.services.numbers import (
     authorised_number_save,
     e164_or_blank,
     number_normalise,
     validation_message,
 )
+from vessels.batch import BatchAnswer, Unreadable
+from vessels.clock import check_plausible
 from vessels.models import Vessel
 
 logger = logging.getLogger(__name__)
@@ -104,9 +109,72 @@ def authorised_numbers_replace(
     return NumbersReplaced(added, updated, removed, tuple(rejected))
 
 
+# The times an uploaded SMS log entry may carry; each must be plausible (the fixes' rule).
+SMS_TIMES = ("created_at", "received_at", "modem_timestamp", "sent_at")
+
+
+def sms_log_upload(
+    *,
+    vessel: Vessel,
+    entries: Sequence[Mapping[str, Any] | Unreadable],
+    now: dt.datetime | None = None,
+) -> BatchAnswer:
+    """Store a batch of ``vessel``'s SMS log (the entries as the boat API read them) and
+    answer it: a new entry is accepted; one the vessel sent before (same ``id``, in an
+    earlier upload or earlier in this one) is a duplicate; an unreadable one, or one that
+    breaks a rule (:func:`sms_log_check`) or the model's checks, is rejected by its index
+    and never costs the others."""
+    now = now or timezone.now()
+    answer = BatchAnswer()
+    seen: set[str] = set()
+    for index, entry in enumerate(entries):
+        if isinstance(entry, Unreadable):
+            answer.reject(index, entry.errors)
+            continue
+        try:
+            sms_log_check(entry, now=now)
+        except ValidationError as exc:
+            answer.reject(index, exc.message_dict)
+            continue
+        if entry["id"] in seen:
+            answer.duplicates += 1
+            continue
+        seen.add(entry["id"])
+        try:
+            stored = sms_log_entry_store(vessel=vessel, entry=entry)
+        except ValidationError as exc:
+            answer.reject(index, exc.message_dict)
+            continue
+        if stored:
+            answer.accepted += 1
+        else:
+            answer.duplicates += 1
+    return answer
+
+
+def sms_log_check(entry: Mapping[str, Any], *, now: dt.datetime) -> None:
+    """The rules an uploaded entry keeps beyond its wire shape; ValidationError names the
+    field. Its times are plausible (a reset clock's stamp is not kept, as for fixes); only
+    an outgoing SMS has a status, and it must; only an incoming one has an outcome."""
+    for name in SMS_TIMES:
+        if entry.get(name) is not None:
+            try:
+                check_plausible(entry[name], now=now, max_future_s=settings.FIX_MAX_FUTURE_S)
+            except ValueError as exc:
+                raise ValidationError({name: [f"{name} {exc}"]}) from None
+    status = entry.get("status", "")
+    if entry["direction"] == Direction.IN and status:
+        raise ValidationError({"status": ["only an outgoing SMS has a status"]})
+    if entry["direction"] == Direction.OUT and not status:
+        raise ValidationError({"status": ["an outgoing SMS needs its status"]})
+    if entry["direction"] == Direction.OUT and entry.get("outcome"):
+        raise ValidationError({"outcome": ["only an incoming SMS has one"]})
+
+
 def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
-    """Store one entry of a vessel's uploaded SMS log (validated by the boat API); False if
-    the vessel sent it before (same ``id``). Its own savepoint: a failure loses only it."""
+    """Store one entry of a vessel's uploaded SMS log (read by the boat API, checked by
+    :func:`sms_log_check`); False if the vessel sent it before (same ``id``). Raises
+    ValidationError when the model refuses it. Its own savepoint: a failure loses only it."""
     origin = entry["id"]
     if SmsMessage.objects.filter(vessel=vessel, origin_id=origin).exists():
         return False
@@ -117,7 +185,7 @@ def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
         reply_to = SmsMessage.objects.filter(vessel=vessel, origin_id=entry["reply_to"]).first()
     try:
         with transaction.atomic():
-            message = SmsMessage.objects.create(
+            message = SmsMessage(
                 origin_id=origin,
                 direction=entry["direction"],
                 vessel=vessel,
@@ -139,6 +207,7 @@ def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
                 reference=entry.get("reference", "")[:20],
                 sent_at=entry.get("sent_at"),
             )
+            _save_checked(message)
             # created_at is auto_now_add: the vessel's own time is written after the insert.
             SmsMessage.objects.filter(pk=message.pk).update(created_at=entry["created_at"])
             uids = entry.get("commands") or []
