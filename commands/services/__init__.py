@@ -21,7 +21,7 @@ from commands.services.handover import (
     command_mark_sent,
     command_note,
 )
-from commands.services.missions import mission_problems, mission_send
+from commands.services.missions import mission_send, mission_send_problems
 from commands.services.reported import (
     CREATED_BY_MAX,
     REPORTED_ACTOR,
@@ -56,7 +56,7 @@ __all__ = [
     "command_reports_record",
     "command_validate",
     "command_withdraw_queued",
-    "mission_problems",
+    "mission_send_problems",
     "mission_send",
     "vessel_context",
 ]

@@ -13,7 +13,7 @@ from vessels import missions
 from vessels.models import Mission, Vessel
 
 
-def mission_problems(*, mission: Mission, vessel: Vessel | None = None) -> list[str]:
+def mission_send_problems(*, mission: Mission, vessel: Vessel | None = None) -> list[str]:
     """Every reason sending ``mission`` (to ``vessel``, default its own) would be refused by
     the catalog or the mission checks, [] when none. Writes nothing: the admin shows these
     when a mission is saved."""
