@@ -21,7 +21,7 @@ from django.utils.html import format_html, format_html_join
 from commands.admin import CommandAdmin, status_badge
 from commands.errors import CommandError
 from commands.models import Command, Source
-from commands.services import mission_problems, mission_send
+from commands.services import mission_send, mission_send_problems
 from sms.models import SmsMessage
 from telemetry.admin import channel_labels, readings_html
 from telemetry.models import Fix
@@ -106,10 +106,10 @@ class FleetMissionAdmin(MissionAdmin):
             "vessels.view_vessel"
         )
 
-    def mission_problems(self, mission: Mission) -> list[str]:
+    def send_problems(self, mission: Mission) -> list[str]:
         # The whole set of checks a send makes: the catalog's (vessel kind, autopilot size)
         # and the route's; vessels.admin alone knows only the route's.
-        return mission_problems(mission=mission)
+        return mission_send_problems(mission=mission)
 
     def get_urls(self) -> list[Any]:
         send = self.admin_site.admin_view(self.send_view)

@@ -72,8 +72,11 @@ class SendStatus(models.TextChoices):
 class SmsMessage(models.Model):
     direction = models.CharField(max_length=3, choices=Direction.choices)
     vessel = models.ForeignKey(Vessel, on_delete=models.CASCADE, related_name="sms_messages")
+    # Blank: a modem may report no sender at all; that SMS is logged as a stranger's.
     number = models.CharField(
-        max_length=RAW_NUMBER_MAX, help_text="As the modem reported it (sender or recipient)."
+        max_length=RAW_NUMBER_MAX,
+        blank=True,
+        help_text="As the modem reported it (sender or recipient).",
     )
     number_e164 = models.CharField(
         "E.164 number",
@@ -130,8 +133,8 @@ class SmsMessage(models.Model):
             # The admin's log, newest first, all vessels or one.
             models.Index(fields=["-created_at"], name="sms_created_desc"),
             models.Index(fields=["vessel", "-created_at"], name="sms_vessel_created"),
-            # Rate limiting (sms.services._rate_limited_until): one number's incoming messages
-            # in a time window that count, the ones it held back left out.
+            # Rate limiting (sms.services.incoming._rate_limited_until): one number's incoming
+            # messages in a time window that count, the ones it held back left out.
             models.Index(
                 fields=["number_e164", "received_at"],
                 condition=Q(direction="in") & ~Q(outcome="rate_limited"),

@@ -35,8 +35,8 @@ from vessels.selectors import missions_visible_to
 from vessels.services import (
     mission_export,
     mission_import,
-    mission_problems,
     mission_review,
+    mission_route_problems,
     mission_save,
     mission_save_items,
     vessel_key_issue,
@@ -375,9 +375,9 @@ class MissionAdmin(admin.ModelAdmin):
             ),
         )
 
-    def mission_problems(self, mission: Mission) -> list[str]:
+    def send_problems(self, mission: Mission) -> list[str]:
         """What would stop this mission being sent; fleet.admin adds the catalog's checks."""
-        return mission_problems(mission=mission)
+        return mission_route_problems(mission=mission)
 
     def save_model(self, request: HttpRequest, obj: Mission, form: Any, change: bool) -> None:
         mission_save(mission=obj)
@@ -391,7 +391,7 @@ class MissionAdmin(admin.ModelAdmin):
                     items.append(row)
         items.sort(key=lambda row: row["seq"])
         mission_save_items(mission=form.instance, items=items)
-        for problem in self.mission_problems(form.instance):
+        for problem in self.send_problems(form.instance):
             messages.warning(request, f"Saved, but it cannot be sent yet: {problem}.")
 
     def construct_change_message(
@@ -436,7 +436,7 @@ class MissionAdmin(admin.ModelAdmin):
                 for item in skipped:
                     messages.warning(request, f"Skipped {item}")
                 # Kept (it may be fixed on the page), but said at once, as a save says it.
-                for problem in self.mission_problems(mission):
+                for problem in self.send_problems(mission):
                     messages.warning(request, f"Imported, but it cannot be sent yet: {problem}.")
                 return redirect("admin:vessels_mission_change", mission.pk)
         context = {

@@ -213,11 +213,11 @@ def mission_delete(*, mission: Mission) -> None:
     mission.delete()
 
 
-def mission_problems(*, mission: Mission) -> list[str]:
+def mission_route_problems(*, mission: Mission) -> list[str]:
     """The route checks this mission fails (vessels.missions.problems), [] when none.
 
-    The size the autopilot can store is the command catalog's rule, checked where commands
-    are validated (commands.services.command_validate)."""
+    The size the autopilot can store and the vessel's kind are the command catalog's rules:
+    every check a send makes is commands.services.mission_send_problems."""
     return missions.problems(
         mission.item_dicts(), max_leg_m=settings.MISSION_MAX_LEG_M, end=mission.end
     )

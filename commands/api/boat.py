@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from django.db import IntegrityError
 from django.http import HttpResponseNotModified
 from django.utils.http import parse_etags
 from drf_spectacular.types import OpenApiTypes
@@ -19,12 +18,12 @@ from rest_framework.exceptions import ParseError, ValidationError
 from rest_framework.request import Request
 from rest_framework.response import Response
 
-from commands.errors import CommandError
 from commands.lifecycle import Status
 from commands.models import Command, Source
-from commands.services import command_ack, command_claim_open, command_record_reported
+from commands.services import command_ack, command_claim_open, command_reports_record
 from vessels.api.boat import AwareDateTimeField, BoatView
 from vessels.api.fields import StrictCharField
+from vessels.batch import Unreadable
 from vessels.models import Vessel
 from vessels.text import json_unstorable, unstorable
 
@@ -197,24 +196,14 @@ class CommandReportView(BoatView):
         """Mirror the commands the vessel created itself (a glider's SMS commands), each as
         it stands there now. New or moved forward: accepted; repeated, older, or one of the
         shore's own commands: a duplicate; bad entries are reported by index, the good kept."""
-        vessel = self.vessel(request)
-        accepted = duplicates = 0
-        rejected: list[dict[str, Any]] = []
-        for index, raw in enumerate(reports_from_body(request.data)):
-            entry = ReportedCommandIn(data=raw) if isinstance(raw, dict) else None
-            if entry is None or not entry.is_valid():
-                errors = entry.errors if entry is not None else {"entry": ["not an object"]}
-                rejected.append({"index": index, "errors": errors})
-                continue
-            try:
-                _command, changed = command_record_reported(vessel=vessel, **entry.validated_data)
-            except CommandError as exc:
-                rejected.append({"index": index, "errors": exc.as_dict()})
-                continue
-            except IntegrityError:
-                changed = False  # the same report racing itself: the other one stored it
-            if changed:
-                accepted += 1
-            else:
-                duplicates += 1
-        return Response({"accepted": accepted, "duplicates": duplicates, "rejected": rejected})
+        reports = [_report_read(raw) for raw in reports_from_body(request.data)]
+        answer = command_reports_record(vessel=self.vessel(request), reports=reports)
+        return Response(answer.as_dict())
+
+
+def _report_read(raw: Any) -> dict[str, Any] | Unreadable:
+    """One report's wire shape, read; what the command means is the service's to check."""
+    entry = ReportedCommandIn(data=raw) if isinstance(raw, dict) else None
+    if entry is None or not entry.is_valid():
+        return Unreadable(entry.errors if entry is not None else {"entry": ["not an object"]})
+    return dict(entry.validated_data)

@@ -8,7 +8,8 @@
   the good ones (the answer has the shape of the telemetry upload's).
 
 Explicit APIViews with hand-built JSON, like the other boat endpoints: the wire shapes are a
-contract with vessels in the field. :mod:`sms.services` does the writing.
+contract with vessels in the field. :mod:`sms.services` checks the entries' rules and does the
+writing (``sms_log_upload``).
 """
 
 from __future__ import annotations
@@ -17,9 +18,7 @@ import hashlib
 import json
 from typing import Any
 
-from django.conf import settings
 from django.http import HttpResponseNotModified
-from django.utils import timezone
 from drf_spectacular.utils import OpenApiParameter, extend_schema, inline_serializer
 from rest_framework import serializers
 from rest_framework.exceptions import ParseError
@@ -37,9 +36,9 @@ from sms.models import (
     Role,
     SendStatus,
 )
-from sms.services import DETAIL_MAX, TEXT_STORE_MAX, sms_log_entry_store
+from sms.services import DETAIL_MAX, TEXT_STORE_MAX, sms_log_upload
 from vessels.api.boat import AwareDateTimeField, BoatView
-from vessels.clock import check_plausible
+from vessels.batch import Unreadable
 from vessels.models import Vessel
 from vessels.text import json_size, json_unstorable
 
@@ -105,9 +104,6 @@ class NumbersView(BoatView):
         return response
 
 
-SMS_TIMES = ("created_at", "received_at", "modem_timestamp", "sent_at")
-
-
 class SmsEntryIn(serializers.Serializer):
     """One entry of the vessel's SMS log as the glider uploads it."""
 
@@ -157,23 +153,6 @@ class SmsEntryIn(serializers.Serializer):
             )
         return value
 
-    def validate(self, attrs: dict[str, Any]) -> dict[str, Any]:
-        now = timezone.now()
-        for name in SMS_TIMES:  # the fixes' rule: a reset clock's stamp is not kept
-            if attrs.get(name) is not None:
-                try:
-                    check_plausible(attrs[name], now=now, max_future_s=settings.FIX_MAX_FUTURE_S)
-                except ValueError as exc:
-                    raise serializers.ValidationError({name: [f"{name} {exc}"]}) from None
-        status = attrs.get("status", "")
-        if attrs["direction"] == Direction.IN and status:
-            raise serializers.ValidationError({"status": ["only an outgoing SMS has a status"]})
-        if attrs["direction"] == Direction.OUT and not status:
-            raise serializers.ValidationError({"status": ["an outgoing SMS needs its status"]})
-        if attrs["direction"] == Direction.OUT and attrs.get("outcome"):
-            raise serializers.ValidationError({"outcome": ["only an incoming SMS has one"]})
-        return attrs
-
 
 def entries_from_body(data: Any) -> list[Any]:
     """A list of entries, or {"messages": [...]}; anything else is a 400 naming the problem."""
@@ -205,23 +184,14 @@ class SmsLogView(BoatView):
     def post(self, request: Request) -> Response:
         """Store a batch of the vessel's SMS log (`{"messages": [...]}` or the bare list). Bad
         entries are reported by index, the good ones kept; re-sent ids count as duplicates."""
-        vessel = self.vessel(request)
-        accepted = duplicates = 0
-        rejected: list[dict[str, Any]] = []
-        seen: set[str] = set()
-        for index, raw in enumerate(entries_from_body(request.data)):
-            entry = SmsEntryIn(data=raw) if isinstance(raw, dict) else None
-            if entry is None or not entry.is_valid():
-                errors = entry.errors if entry is not None else {"entry": ["not an object"]}
-                rejected.append({"index": index, "errors": errors})
-                continue
-            data = entry.validated_data
-            if data["id"] in seen:
-                duplicates += 1
-                continue
-            seen.add(data["id"])
-            if sms_log_entry_store(vessel=vessel, entry=data):
-                accepted += 1
-            else:
-                duplicates += 1
-        return Response({"accepted": accepted, "duplicates": duplicates, "rejected": rejected})
+        entries = [_entry_read(raw) for raw in entries_from_body(request.data)]
+        answer = sms_log_upload(vessel=self.vessel(request), entries=entries)
+        return Response(answer.as_dict())
+
+
+def _entry_read(raw: Any) -> dict[str, Any] | Unreadable:
+    """One entry's wire shape, read; its times and direction are the service's to check."""
+    entry = SmsEntryIn(data=raw) if isinstance(raw, dict) else None
+    if entry is None or not entry.is_valid():
+        return Unreadable(entry.errors if entry is not None else {"entry": ["not an object"]})
+    return dict(entry.validated_data)

@@ -132,10 +132,10 @@ def test_racing_navigation_commands_leave_only_the_newest_queued(
     # stayed queued. The barrier holds each enqueue just before that look: when enqueues
     # are serialised per vessel, the second never gets there while the first waits, the
     # barrier times out and the first goes on alone.
-    from commands import services
+    from commands.services import enqueue
 
     barrier = threading.Barrier(2)
-    real = services._supersede_older_navigation
+    real = enqueue._supersede_older_navigation
 
     def meet_then_supersede(command: Command, now: Any) -> None:
         try:
@@ -144,7 +144,7 @@ def test_racing_navigation_commands_leave_only_the_newest_queued(
             pass
         real(command, now)
 
-    monkeypatch.setattr(services, "_supersede_older_navigation", meet_then_supersede)
+    monkeypatch.setattr(enqueue, "_supersede_older_navigation", meet_then_supersede)
     race(
         *[
             lambda lat=lat: command_enqueue(

@@ -18,8 +18,10 @@ from commands.services import (
     command_claim_open,
     command_enqueue,
     command_record_reported,
+    command_reports_record,
 )
 from tests.conftest import boat_client
+from vessels.batch import Unreadable
 from vessels.models import Vessel
 from vessels.services import vessel_key_issue
 
@@ -344,3 +346,20 @@ def test_params_the_database_cannot_store_are_rejected_by_index(
     answer = response.json()
     assert answer["accepted"] == 1 and [r["index"] for r in answer["rejected"]] == [0]
     assert answer["rejected"][0]["errors"]["params"][0].startswith(message)
+
+
+def test_one_service_answers_a_whole_report_batch(glider):
+    # The batch answer is the service's, not the view's: the same from any caller.
+    uid = uuid.uuid4()
+    fields = {"kind": "fhead", "params": {"bearing": 230}, "created_at": at(0)}
+    reports = [
+        {"uid": uid, "status": "queued", **fields},
+        Unreadable({"entry": ["not an object"]}),
+        {"uid": uuid.uuid4(), "status": "nonsense", **fields},
+        {"uid": uid, "status": "queued", **fields},  # repeated
+        {"uid": uid, "status": "done", "finished_at": at(5), **fields},  # moved forward
+    ]
+    answer = command_reports_record(vessel=glider, reports=reports).as_dict()
+    assert (answer["accepted"], answer["duplicates"]) == (2, 1)
+    assert [(r["index"], *r["errors"]) for r in answer["rejected"]] == [(1, "entry"), (2, "status")]
+    assert Command.objects.get(uid=uid).status == "done"

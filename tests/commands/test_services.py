@@ -194,9 +194,9 @@ def test_a_command_cancelled_while_a_poll_claims_it_is_not_handed_out(
 ) -> None:
     # The poll reads the queued list, then an operator's cancel commits before the poll's
     # queued→sent UPDATE: the poll loses that race and must not give the boat the command.
-    from commands import services
+    from commands.services import delivery
 
-    real = services._transition
+    real = delivery._transition
     raced: list[Command] = []
 
     def cancel_first(command: Command, target: Status, **kwargs: object) -> bool:
@@ -207,7 +207,7 @@ def test_a_command_cancelled_while_a_poll_claims_it_is_not_handed_out(
 
     cancelled = command_enqueue(vessel=vessel_a, kind="arm", params={})
     kept = command_enqueue(vessel=vessel_a, kind="disarm", params={})
-    monkeypatch.setattr(services, "_transition", cancel_first)
+    monkeypatch.setattr(delivery, "_transition", cancel_first)
     offered = command_claim_open(vessel=vessel_a)
     assert [c.uid for c in offered] == [kept.uid]
     cancelled.refresh_from_db()

@@ -246,8 +246,6 @@ def test_no_module_imports_itself_back() -> None:
 
 # -- module size -------------------------------------------------------------------------------
 MAX_LINES = 600
-# Over the limit for now, split by issue 17 item 3 ("services split"), which removes them here.
-TOO_LONG_FOR_NOW = {"commands/services.py", "sms/services.py"}
 
 
 def test_no_module_is_over_600_lines() -> None:
@@ -257,5 +255,4 @@ def test_no_module_is_over_600_lines() -> None:
     }  # tests are not modules of the project; nothing vendored is Python
     assert "edge_client/executor.py" in sizes  # the project was read
     long = {path: n for path, n in sizes.items() if n > MAX_LINES}
-    assert long.keys() - TOO_LONG_FOR_NOW == set(), long
-    assert TOO_LONG_FOR_NOW <= long.keys()  # split already: take it off the list
+    assert long == {}

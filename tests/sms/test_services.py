@@ -1,4 +1,4 @@
-"""The SMS service (sms/services.py): authorisation personas, duplicates, rate limits, commands,
+"""The SMS service (sms/services/): authorisation personas, duplicates, rate limits, commands,
 queries and #STATUS answered from the vessel's known state, the outgoing queue."""
 
 from __future__ import annotations

@@ -39,7 +39,7 @@ from vessels.services import (
     mission_delete,
     mission_export,
     mission_import,
-    mission_problems,
+    mission_route_problems,
     mission_summary,
     mission_write,
 )
@@ -147,7 +147,7 @@ class MissionSerializer(serializers.ModelSerializer):
         return self._summary(mission).total_s
 
     def get_problems(self, mission: Mission) -> list[str]:
-        return mission_problems(mission=mission)
+        return mission_route_problems(mission=mission)
 
     def create(self, validated_data: dict[str, Any]) -> Mission:
         items = validated_data.pop("items", [])

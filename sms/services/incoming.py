@@ -1,0 +1,308 @@
+"""The one entry point for an incoming SMS: de-duplicate, identify the sender, rate-limit, parse,
+carry the commands out, and log it; :mod:`sms.services.replies` says what is answered and when."""
+
+from __future__ import annotations
+
+import datetime as dt
+import functools
+import hashlib
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+from django.conf import settings
+from django.db import IntegrityError, transaction
+from django.utils import timezone
+from django.utils.dateparse import parse_datetime
+
+from commands.errors import CommandError
+from commands.models import Command, Source
+from commands.services import command_enqueue
+from sms import language
+from sms.language import Answer, Item, ItemKind
+from sms.level2.inner import InnerCommandTable
+from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Outcome, Role, SmsMessage
+from sms.services import replies as replying
+from sms.services._common import (
+    _ALLOWED,
+    _NUMBERS,
+    _SMS,
+    _UNSTORABLE,
+    DETAIL_MAX,
+    TEXT_STORE_MAX,
+    _save_checked,
+    _scalar,
+    _stamp,
+)
+from sms.services.numbers import e164_or_blank
+from vessels.kinds import WAVE_GLIDER
+from vessels.models import Vessel
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SmsOutcome:
+    """What an incoming SMS led to: its log entry, the replies to send, the commands queued."""
+
+    message: SmsMessage
+    replies: tuple[SmsMessage, ...] = ()
+    commands: tuple[Command, ...] = ()
+    duplicate: bool = False  # delivered before: this is what the first delivery got
+
+    @property
+    def outcome(self) -> str:
+        return self.message.outcome
+
+    @property
+    def reply_texts(self) -> list[str]:
+        return [reply.text for reply in self.replies]
+
+
+@functools.cache
+def shipped_table() -> InnerCommandTable:
+    """The glider's inner command table as shipped (sms/level2/inner_commands.toml)."""
+    return InnerCommandTable.load()
+
+
+def sms_handle_incoming(
+    *,
+    vessel: Vessel,
+    number: str,
+    text: str,
+    received_at: dt.datetime,
+    modem_timestamp: dt.datetime | None = None,
+    table: InnerCommandTable | None = None,
+    send_replies: bool = True,
+    reply_window_s: float = 0.0,
+    readings: Mapping[str, float] | None = None,
+) -> SmsOutcome:
+    """Handle one SMS that reached ``vessel``'s modem; the one way in for every SMS.
+
+    1. A delivery seen before (same vessel, number, text and modem time stamp: a modem
+       re-reading its store) returns what the first one got and creates nothing.
+    2. The sender is looked up by E.164 number: a stranger, an inactive, expired or other
+       vessel's number is logged and gets no reply at all (a stranger learns nothing).
+    3. A number past SMS_RATE_LIMIT answered messages in SMS_RATE_WINDOW_S is logged, not
+       answered; the first such text gets one notice saying when it is answered again
+       (:func:`sms.services.replies.rate_notice`), the others nothing.
+    4. The text is parsed (:mod:`sms.language`, checked against the glider's inner command
+       ``table``, the shipped one by default); a query-role number that commands is refused.
+    5. Commands are queued (source ``sms``, created by the number), queries answered from
+       the vessel's known state, and one reply is stored as pending for the modem
+       (``send_replies=False``: stored as not to be sent, for ``sms_inject``).
+    6. With a ``reply_window_s`` (the bridge's), a reply with commands is held as ``waiting``
+       for their outcome until the window passes (:func:`sms_replies_due`), so that it can
+       say ``OK`` or ``FAILED …`` rather than ``QUEUED``. ``readings`` (the glider's live
+       sensor readings) answer ``#STATUS`` before the last fix's.
+
+    Everything is written in one transaction.
+    """
+    text = _UNSTORABLE.sub("\ufffd", text[:TEXT_STORE_MAX])
+    number = _UNSTORABLE.sub("\ufffd", number.strip())[:RAW_NUMBER_MAX]
+    key = _delivery_key(vessel, number, text, modem_timestamp)
+    if key and (seen := _delivered(key)):
+        return seen
+    if table is None and vessel.kind == WAVE_GLIDER:
+        table = shipped_table()
+    try:
+        with transaction.atomic():
+            return _handle(
+                vessel=vessel,
+                number=number,
+                text=text,
+                received_at=received_at,
+                modem_timestamp=modem_timestamp,
+                key=key,
+                table=table if vessel.kind == WAVE_GLIDER else None,
+                send_replies=send_replies,
+                reply_window_s=reply_window_s,
+                readings=readings,
+            )
+    except IntegrityError:
+        # Two deliveries of one SMS racing: the other one committed first.
+        seen = _delivered(key) if key else None
+        if seen is None:
+            raise
+        logger.info("SMS from %s delivered twice at once; handled once", number)
+        return seen
+
+
+def _delivery_key(
+    vessel: Vessel, number: str, text: str, modem_timestamp: dt.datetime | None
+) -> str | None:
+    if modem_timestamp is None:
+        return None
+    stamp = modem_timestamp.astimezone(dt.UTC).isoformat()
+    raw = "\x1f".join([str(vessel.pk), number, stamp, text])
+    return hashlib.sha256(raw.encode("utf-8", "surrogatepass")).hexdigest()
+
+
+def _delivered(key: str) -> SmsOutcome | None:
+    # Asked of every SMS and almost always "no": look for the key alone (the unique index
+    # answers it), and read the message only when there is one.
+    if _scalar(f"SELECT 1 FROM {_SMS} WHERE delivery_key = %s", [key]) is None:
+        return None
+    message = SmsMessage.objects.get(delivery_key=key)
+    return SmsOutcome(
+        message=message,
+        replies=tuple(message.replies.order_by("pk")),
+        commands=tuple(message.commands.order_by("pk")),
+        duplicate=True,
+    )
+
+
+def _handle(
+    *,
+    vessel: Vessel,
+    number: str,
+    text: str,
+    received_at: dt.datetime,
+    modem_timestamp: dt.datetime | None,
+    key: str | None,
+    table: InnerCommandTable | None,
+    send_replies: bool,
+    reply_window_s: float = 0.0,
+    readings: Mapping[str, float] | None = None,
+) -> SmsOutcome:
+    e164 = e164_or_blank(number)
+    message = SmsMessage(
+        direction=Direction.IN,
+        vessel=vessel,
+        number=number,
+        number_e164=e164,
+        text=text,
+        modem_timestamp=modem_timestamp,
+        received_at=received_at,
+        delivery_key=key,
+    )
+    entry, refusal = _identify(e164, vessel, received_at)
+    message.authorised_number = entry
+    if entry is None:
+        return _logged(message, Outcome.STRANGER)
+    if refusal:
+        return _logged(message, Outcome.REFUSED, refusal)
+    until = _rate_limited_until(e164, received_at)
+    if until is not None:
+        message.authorised = True
+        limit = f"more than {settings.SMS_RATE_LIMIT} in {settings.SMS_RATE_WINDOW_S} s"
+        again = f"answered again from {until.astimezone(dt.UTC):%Y-%m-%d %H:%M:%S} UTC"
+        logged = _logged(message, Outcome.RATE_LIMITED, f"{limit}; {again}")
+        notice = replying.rate_notice(message, entry, until, send_replies=send_replies)
+        return replace(logged, replies=(notice,) if notice else ())
+    items = language.parse(text, vessel_kind=vessel.kind, table=table)
+    message.parsed = [item.as_dict() for item in items]
+    if entry.role != Role.CONTROL and any(item.commanding for item in items):
+        return _logged(message, Outcome.REFUSED, "query role: may not command")
+    message.authorised = True
+    answers, queued = _carry_out(
+        items, vessel=vessel, sender=e164, now=received_at, readings=readings
+    )
+    commands = [command for _, command in queued]
+    message.outcome = Outcome.ERROR if any(a.error for a in answers) else Outcome.ACCEPTED
+    _save_checked(message)
+    reply = replying.reply_store(
+        message=message,
+        entry=entry,
+        answers=answers,
+        queued=queued,
+        send_replies=send_replies,
+        reply_window_s=reply_window_s,
+    )
+    if commands:
+        link = SmsMessage.commands.through
+        link.objects.bulk_create(
+            [link(smsmessage=m, command=c) for m in (message, reply) for c in commands]
+        )
+    return SmsOutcome(message=message, replies=(reply,), commands=tuple(commands))
+
+
+def _logged(message: SmsMessage, outcome: Outcome, detail: str = "") -> SmsOutcome:
+    message.outcome = outcome
+    message.detail = detail[:DETAIL_MAX]
+    _save_checked(message)
+    return SmsOutcome(message=message)
+
+
+def _identify(e164: str, vessel: Vessel, now: dt.datetime) -> tuple[AuthorisedNumber | None, str]:
+    """The sender's entry (None: a stranger) and why it may not use this vessel ("" if it may)."""
+    if not e164:
+        return None, ""
+    # number is unique: at most one row. Written out (see _scalar): building it with the ORM,
+    # an Exists() annotation, took more time than any other step of handling an SMS.
+    found = AuthorisedNumber.objects.raw(
+        f"SELECT a.*, EXISTS (SELECT 1 FROM {_ALLOWED} v WHERE v.authorisednumber_id = a.id "
+        f"AND v.vessel_id = %s) AS for_vessel FROM {_NUMBERS} a WHERE a.number = %s",
+        [vessel.pk, e164],
+    )
+    entry = next(iter(found), None)
+    if entry is None:
+        return None, ""
+    if not entry.active:
+        return entry, "number inactive"
+    if entry.expires_at is not None and entry.expires_at <= now:
+        return entry, f"authorisation expired {entry.expires_at:%Y-%m-%d %H:%M} UTC"
+    if not entry.for_vessel:
+        return entry, f"not authorised for {vessel.slug}"
+    return entry, ""
+
+
+def _rate_limited_until(e164: str, now: dt.datetime) -> dt.datetime | None:
+    """When the number's texts are answered again, or None when this one is answered.
+
+    Only the messages the limit let through count (not the ones it held back): so the time a
+    notice gives stays true however often the number texts meanwhile. With the limit-th newest
+    of them at ``t``, a text at ``t + window`` or later finds fewer than the limit in its window.
+    """
+    limit, window = settings.SMS_RATE_LIMIT, settings.SMS_RATE_WINDOW_S
+    if limit <= 0:
+        return None
+    since = now - dt.timedelta(seconds=window)
+    # The limit-th row, newest first, of the partial index sms_in_rate_count (its condition
+    # written as the index's own literals so the planner can use it): bounded however many a
+    # flood sent.
+    oldest = _scalar(
+        f"SELECT received_at FROM {_SMS} WHERE direction = 'in' AND NOT outcome = "
+        "'rate_limited' AND number_e164 = %s AND received_at > %s AND received_at <= %s "
+        "ORDER BY received_at DESC LIMIT 1 OFFSET %s",
+        [e164, _stamp(since), _stamp(now), limit - 1],
+    )
+    if oldest is None:
+        return None
+    if isinstance(oldest, str):  # SQLite hands the raw text back
+        oldest = parse_datetime(oldest)
+    if timezone.is_naive(oldest):
+        oldest = timezone.make_aware(oldest, dt.UTC)
+    return oldest + dt.timedelta(seconds=window)
+
+
+def _carry_out(
+    items: Sequence[Item],
+    *,
+    vessel: Vessel,
+    sender: str,
+    now: dt.datetime,
+    readings: Mapping[str, float] | None = None,
+) -> tuple[list[Answer], list[tuple[int, Command]]]:
+    """One answer per item, in order, and the commands queued (with their answer's index)."""
+    answers: list[Answer] = []
+    queued: list[tuple[int, Command]] = []
+    for item in items:
+        if item.kind == ItemKind.COMMAND:
+            try:
+                command = command_enqueue(
+                    vessel=vessel,
+                    kind=item.command,
+                    params=dict(item.params),
+                    source=Source.SMS,
+                    created_by=sender,
+                )
+            except CommandError as exc:  # the vessel was made inactive, …
+                answers.append(language.answer_command(item, f"ERR {exc.message}", error=True))
+                continue
+            queued.append((len(answers), command))
+            answers.append(language.answer_command(item, "QUEUED"))
+        else:
+            answers.append(replying.answer_item(vessel, item, now, readings))
+    replying.say_superseded(answers, queued)
+    return answers, queued

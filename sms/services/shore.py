@@ -1,0 +1,220 @@
+"""The shore link (issue 11 §6): the numbers from the shore, the glider's SMS log to it (one
+batch, one answer: :func:`sms_log_upload`)."""
+
+from __future__ import annotations
+
+import datetime as dt
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from django.conf import settings
+from django.core.exceptions import ValidationError
+from django.db import IntegrityError, transaction
+from django.utils import timezone
+from django.utils.dateparse import parse_datetime
+
+from commands.models import Command
+from sms.errors import InvalidNumber
+from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SmsMessage
+from sms.services._common import _UNSTORABLE, DETAIL_MAX, TEXT_STORE_MAX, _save_checked
+from sms.services.numbers import (
+    authorised_number_save,
+    e164_or_blank,
+    number_normalise,
+    validation_message,
+)
+from vessels.batch import BatchAnswer, Unreadable
+from vessels.clock import check_plausible
+from vessels.models import Vessel
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class NumbersReplaced:
+    """What :func:`authorised_numbers_replace` changed on this side."""
+
+    added: int = 0
+    updated: int = 0
+    removed: int = 0
+    rejected: tuple[str, ...] = ()  # why each unusable entry was skipped
+
+
+def _entry_expiry(value: object) -> dt.datetime | None:
+    if value in (None, ""):
+        return None
+    if isinstance(value, dt.datetime):
+        return value
+    parsed = parse_datetime(str(value))
+    if parsed is None or parsed.tzinfo is None:
+        raise ValidationError({"expires_at": [f"{value!r} is not a date-time with an offset"]})
+    return parsed
+
+
+@transaction.atomic
+def authorised_numbers_replace(
+    *, vessel: Vessel, numbers: Sequence[Mapping[str, object]]
+) -> NumbersReplaced:
+    """Make ``numbers`` (the shore's list for ``vessel``: number, name, role, active,
+    expires_at) the numbers that may address ``vessel`` here, in one transaction.
+
+    The shore admin is where numbers are managed: an entry missing from the list may no longer
+    address the vessel (its entry is kept, so the log still names its holder). An unusable
+    entry is skipped and reported; the others are applied. Entries that did not change are not
+    written.
+    """
+    added = updated = 0
+    rejected: list[str] = []
+    kept: set[str] = set()
+    for raw in numbers:
+        try:
+            e164 = number_normalise(raw=str(raw.get("number", "")))
+            name = str(raw.get("name") or e164)[:100]
+            role = str(raw.get("role", ""))
+            active = raw.get("active", True) is True
+            expires_at = _entry_expiry(raw.get("expires_at"))
+            if role not in Role.values:
+                raise ValidationError({"role": [f"{role!r} is not a role"]})
+        except (InvalidNumber, ValidationError) as exc:
+            rejected.append(f"{raw.get('number')!r}: {exc}")
+            continue
+        entry = AuthorisedNumber.objects.filter(number=e164).first()
+        linked = entry is not None and entry.vessels.filter(pk=vessel.pk).exists()
+        wanted = {"name": name, "role": role, "active": active, "expires_at": expires_at}
+        if entry is not None and linked and all(getattr(entry, k) == v for k, v in wanted.items()):
+            kept.add(e164)
+            continue
+        vessels = [vessel] if entry is None else [*entry.vessels.exclude(pk=vessel.pk), vessel]
+        fresh = entry is None
+        entry = entry or AuthorisedNumber(number=e164)
+        for field, value in wanted.items():
+            setattr(entry, field, value)
+        try:
+            authorised_number_save(entry=entry, vessels=vessels)
+        except ValidationError as exc:
+            rejected.append(f"{e164}: {validation_message(exc)}")
+            continue
+        kept.add(e164)
+        added += fresh
+        updated += not fresh
+    gone = AuthorisedNumber.objects.filter(vessels=vessel).exclude(number__in=kept)
+    removed = 0
+    for entry in gone:
+        entry.vessels.remove(vessel)
+        removed += 1
+    for reason in rejected:
+        logger.warning("authorised number from the shore skipped: %s", reason)
+    return NumbersReplaced(added, updated, removed, tuple(rejected))
+
+
+# The times an uploaded SMS log entry may carry; each must be plausible (the fixes' rule).
+SMS_TIMES = ("created_at", "received_at", "modem_timestamp", "sent_at")
+
+
+def sms_log_upload(
+    *,
+    vessel: Vessel,
+    entries: Sequence[Mapping[str, Any] | Unreadable],
+    now: dt.datetime | None = None,
+) -> BatchAnswer:
+    """Store a batch of ``vessel``'s SMS log (the entries as the boat API read them) and
+    answer it: a new entry is accepted; one the vessel sent before (same ``id``, in an
+    earlier upload or earlier in this one) is a duplicate; an unreadable one, or one that
+    breaks a rule (:func:`sms_log_check`) or the model's checks, is rejected by its index
+    and never costs the others."""
+    now = now or timezone.now()
+    answer = BatchAnswer()
+    seen: set[str] = set()
+    for index, entry in enumerate(entries):
+        if isinstance(entry, Unreadable):
+            answer.reject(index, entry.errors)
+            continue
+        try:
+            sms_log_check(entry, now=now)
+        except ValidationError as exc:
+            answer.reject(index, exc.message_dict)
+            continue
+        if entry["id"] in seen:
+            answer.duplicates += 1
+            continue
+        seen.add(entry["id"])
+        try:
+            stored = sms_log_entry_store(vessel=vessel, entry=entry)
+        except ValidationError as exc:
+            answer.reject(index, exc.message_dict)
+            continue
+        if stored:
+            answer.accepted += 1
+        else:
+            answer.duplicates += 1
+    return answer
+
+
+def sms_log_check(entry: Mapping[str, Any], *, now: dt.datetime) -> None:
+    """The rules an uploaded entry keeps beyond its wire shape; ValidationError names the
+    field. Its times are plausible (a reset clock's stamp is not kept, as for fixes); only
+    an outgoing SMS has a status, and it must; only an incoming one has an outcome."""
+    for name in SMS_TIMES:
+        if entry.get(name) is not None:
+            try:
+                check_plausible(entry[name], now=now, max_future_s=settings.FIX_MAX_FUTURE_S)
+            except ValueError as exc:
+                raise ValidationError({name: [f"{name} {exc}"]}) from None
+    status = entry.get("status", "")
+    if entry["direction"] == Direction.IN and status:
+        raise ValidationError({"status": ["only an outgoing SMS has a status"]})
+    if entry["direction"] == Direction.OUT and not status:
+        raise ValidationError({"status": ["an outgoing SMS needs its status"]})
+    if entry["direction"] == Direction.OUT and entry.get("outcome"):
+        raise ValidationError({"outcome": ["only an incoming SMS has one"]})
+
+
+def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
+    """Store one entry of a vessel's uploaded SMS log (read by the boat API, checked by
+    :func:`sms_log_check`); False if the vessel sent it before (same ``id``). Raises
+    ValidationError when the model refuses it. Its own savepoint: a failure loses only it."""
+    origin = entry["id"]
+    if SmsMessage.objects.filter(vessel=vessel, origin_id=origin).exists():
+        return False
+    number = _UNSTORABLE.sub("\ufffd", entry["number"])[:RAW_NUMBER_MAX]
+    e164 = e164_or_blank(number)
+    reply_to = None
+    if entry.get("reply_to"):
+        reply_to = SmsMessage.objects.filter(vessel=vessel, origin_id=entry["reply_to"]).first()
+    try:
+        with transaction.atomic():
+            message = SmsMessage(
+                origin_id=origin,
+                direction=entry["direction"],
+                vessel=vessel,
+                number=number,
+                number_e164=e164,
+                authorised_number=AuthorisedNumber.objects.filter(number=e164).first()
+                if e164
+                else None,
+                text=_UNSTORABLE.sub("\ufffd", entry.get("text", "")[:TEXT_STORE_MAX]),
+                authorised=bool(entry.get("authorised")),
+                outcome=entry.get("outcome", ""),
+                detail=entry.get("detail", "")[:DETAIL_MAX],
+                parsed=entry.get("parsed") or [],
+                reply_to=reply_to,
+                modem_timestamp=entry.get("modem_timestamp"),
+                received_at=entry.get("received_at"),
+                status=entry.get("status", ""),
+                status_detail=entry.get("status_detail", "")[:DETAIL_MAX],
+                reference=entry.get("reference", "")[:20],
+                sent_at=entry.get("sent_at"),
+            )
+            _save_checked(message)
+            # created_at is auto_now_add: the vessel's own time is written after the insert.
+            SmsMessage.objects.filter(pk=message.pk).update(created_at=entry["created_at"])
+            uids = entry.get("commands") or []
+            if uids:
+                message.commands.set(Command.objects.filter(vessel=vessel, uid__in=uids))
+    except IntegrityError:
+        if SmsMessage.objects.filter(vessel=vessel, origin_id=origin).exists():
+            return False  # the same upload racing itself
+        raise
+    return True
