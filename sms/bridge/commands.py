@@ -61,11 +61,11 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from django.db import DatabaseError, OperationalError
-from django.db.models import Q, QuerySet
+from django.db.models import QuerySet
 from django.utils import timezone
 
-from commands.lifecycle import OPEN, Status
-from commands.models import Command, CommandEvent
+from commands.lifecycle import Status
+from commands.models import Command
 from commands.services import (
     command_complete,
     command_expire_due,
@@ -73,7 +73,7 @@ from commands.services import (
     command_mark_sent,
     command_note,
 )
-from sms import sql
+from sms import selectors, sql
 from sms.level2.bodies import response_meaning
 from sms.level2.codec import Address, Frame, MessageType
 from sms.level2.errors import CommandRefused
@@ -101,7 +101,6 @@ RETRY_WINDOW_S = 10.0
 # src_board) keep the same for a restarted bridge, to answer the C&C's retry identically.
 _HANDOVER = "handed over to the C&C in reply to request queued tid 0x{tid:04X} from {src}"
 _HANDOVER_UNKNOWN = "handed over to the C&C"
-_OPEN = [s.value for s in OPEN]
 _NO_INDEX = object()  # _query_waiting could not use sms.sql.OPEN_INDEX
 # Queued commands past expires_at are never offered (the queries skip them); marking them
 # expired walks the vessel's history, so the bridge loop does it this often, not every request.
@@ -277,7 +276,7 @@ class DatabaseCommandSource:
         found = self._query_waiting(sql.queued_oldest_id, now)
         if found is _NO_INDEX:
             return self._waiting(now).order_by("created_at", "pk").first()
-        return None if found is None else Command.objects.filter(pk=found).order_by().first()
+        return None if found is None else selectors.bridge_command(found)
 
     def _query_waiting(self, query: Callable[[int, dt.datetime], Any], now: dt.datetime) -> Any:
         """``query`` (one of sms.sql's queued_* reads, written out for the status request's
@@ -301,13 +300,7 @@ class DatabaseCommandSource:
             return _NO_INDEX
 
     def _waiting(self, now: dt.datetime) -> QuerySet[Command]:
-        # status IN (open) repeats the condition of the partial index command_open_by_vessel
-        # (vessel, created_at), so the planner can use it; status = queued then narrows.
-        return (
-            Command.objects.filter(vessel_id=self.vessel.pk, status__in=_OPEN)
-            .filter(status=Status.QUEUED)
-            .filter(Q(expires_at__isnull=True) | Q(expires_at__gt=now))
-        )
+        return selectors.bridge_commands_waiting(vessel_id=self.vessel.pk, now=now)
 
     def _quarantined(self, now: dt.datetime) -> bool:
         return self._quarantine_until is not None and now < self._quarantine_until
@@ -367,7 +360,7 @@ class DatabaseCommandSource:
     def _note(self, pk: int, detail: str, now: dt.datetime) -> None:
         """A note on a command's log; the log line already went out, so a refusal is logged."""
         try:
-            command_note(command=Command.objects.get(pk=pk), detail=detail, actor=ACTOR, now=now)
+            command_note(command=selectors.bridge_command(pk), detail=detail, actor=ACTOR, now=now)
         except DatabaseError as exc:
             log.error("note not saved (%s): %s", exc, detail)
 
@@ -391,7 +384,7 @@ class DatabaseCommandSource:
     def _settle(self, outcome: _Outcome) -> bool:
         """Write one outcome; if the database refuses, keep it for :meth:`flush_results`."""
         try:
-            command = Command.objects.get(pk=outcome.flight.pk)
+            command = selectors.bridge_command(outcome.flight.pk)
             if not command_complete(
                 command=command,
                 status=outcome.status,
@@ -433,11 +426,7 @@ class DatabaseCommandSource:
         the command that timed out could be credited to the next one after a quick restart).
         """
         self._restore_quarantine()
-        sent = list(
-            Command.objects.filter(vessel_id=self.vessel.pk, status=Status.SENT).order_by(
-                "-sent_at", "-pk"
-            )
-        )
+        sent = selectors.bridge_commands_sent(vessel_id=self.vessel.pk)
         if not sent:
             return
         newest, older = sent[0], sent[1:]
@@ -460,17 +449,8 @@ class DatabaseCommandSource:
 
     def _restore_quarantine(self) -> None:
         now = self.clock()
-        last = (
-            CommandEvent.objects.filter(
-                command__vessel_id=self.vessel.pk,
-                to_status=Status.FAILED,
-                actor=ACTOR,
-                detail=NO_ANSWER,
-                at__gt=now - self.quarantine,
-            )
-            .select_related("command")
-            .order_by("-at", "-pk")
-            .first()
+        last = selectors.bridge_last_timeout(
+            vessel_id=self.vessel.pk, actor=ACTOR, detail=NO_ANSWER, since=now - self.quarantine
         )
         if last is not None:
             command = last.command
@@ -480,12 +460,7 @@ class DatabaseCommandSource:
 
 def _handover_request(command: Command) -> tuple[int | None, Address | None]:
     """The tid and source of the request that took ``command``, from its sent event."""
-    event = (
-        CommandEvent.objects.filter(command=command, to_status=Status.SENT, actor=ACTOR)
-        .exclude(from_status=Status.SENT)
-        .order_by("-at", "-pk")
-        .first()
-    )
+    event = selectors.bridge_handover_event(command=command, actor=ACTOR)
     if event is None or None in (event.tid, event.src_task, event.src_board):
         return None, None
     return event.tid, Address(event.src_task, event.src_board)
