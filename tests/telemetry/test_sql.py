@@ -8,7 +8,7 @@ import datetime as dt
 import json
 
 from telemetry import sql
-from telemetry.models import Fix
+from telemetry.models import Fix, TrackBucket, TrackDirty
 from tests.support import BASE
 from vessels.models import Vessel
 
@@ -71,3 +71,49 @@ def test_the_feature_line_is_a_geojson_point_with_every_value(vessel_a: Vessel) 
             "readings": {"t": 19.5},
         },
     }
+
+
+# -- the track overview's reads ------------------------------------------------------------------
+
+
+def test_raw_fixes_and_points_are_the_half_open_range_by_time_in_unix_seconds(
+    vessel_a: Vessel, vessel_b: Vessel
+) -> None:
+    for seconds in (20.25, 0, 10):
+        fix(vessel_a, seconds, battery_v=12.5, readings={"t": seconds})
+    fix(vessel_b, 10)
+    lo, hi = BASE.timestamp(), BASE.timestamp() + 20.25
+    assert sql.raw_points(vessel_a.pk, lo, hi) == [
+        (lo, -31.5, 115.25),
+        (lo + 10, -31.5, 115.25),
+    ]
+    assert sql.raw_fixes(vessel_a.pk, lo, hi + 1)[2] == (hi, -31.5, 115.25, 12.5, {"t": 20.25})
+
+
+def test_buckets_read_the_width_asked_and_leave_the_unasked_column_out(vessel_a: Vessel) -> None:
+    start = int(BASE.timestamp())
+    point = [start + 1.0, -31.5, 115.25]
+    for width, at in ((60, start), (60, start + 60), (600, start)):
+        TrackBucket.objects.create(
+            vessel=vessel_a,
+            width=width,
+            start=at,
+            count=2,
+            points=[point, point, point, point, point, point, None, None],
+            channels={"": [12.0, 13.0, 25.0, 2.0]},
+        )
+    [one] = sql.buckets(vessel_a.pk, 60, start, start + 60)
+    assert (one.start, one.count, one.first, one.gap) == (start, 2, tuple(point), None)
+    assert one.channels == {"": [12.0, 13.0, 25.0, 2.0]}
+    [plain] = sql.buckets(vessel_a.pk, 600, start, start + 1, points=False, channels=False)
+    assert (plain.first, plain.channels) == (None, {})
+
+
+def test_dirty_minutes_are_those_touching_the_range(vessel_a: Vessel, vessel_b: Vessel) -> None:
+    start = int(BASE.timestamp())
+    for minute in (-2, -1, 0, 1, 3):
+        TrackDirty.objects.create(vessel=vessel_a, start=start + 60 * minute)
+    TrackDirty.objects.create(vessel=vessel_b, start=start)
+    # The minute before ends where the range starts; the one at its end starts after it.
+    assert sql.dirty_minutes(vessel_a.pk, start, start + 120) == [start, start + 60]
+    assert sql.dirty_minutes(vessel_a.pk, start + 30, start + 90) == [start, start + 60]
