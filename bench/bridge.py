@@ -57,11 +57,12 @@ def main(argv: list[str] | None = None) -> int:
 
     from commands.models import Command
     from commands.services import command_enqueue
-    from sms.bridge.commands import DatabaseCommandSource, _waiting_sql
+    from sms.bridge.commands import DatabaseCommandSource
     from sms.bridge.machine import BridgeMachine
     from sms.level2.bodies import AckNakQueued, StatusRequest
     from sms.level2.codec import CC_MAIN, Address, Frame, MessageType
     from sms.level2.payload import MemoryCommandSource, PayloadMachine
+    from sms.sql import waiting_sql
     from vessels.services import vessel_create
 
     call_command("migrate", verbosity=0)
@@ -84,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
         now = connection.ops.adapt_datetimefield_value(source.clock())
         with connection.cursor() as cursor:
             cursor.execute(
-                f"EXPLAIN QUERY PLAN {_waiting_sql('COUNT(*)')}", [glider.pk, "queued", now]
+                f"EXPLAIN QUERY PLAN {waiting_sql('COUNT(*)')}", [glider.pk, "queued", now]
             )
             print("  plan:", "; ".join(row[-1] for row in cursor.fetchall()))
 

@@ -242,9 +242,10 @@ def csv_ceiling(
     them: (how, a generator of byte blocks). The export's own line SQL, so the same text."""
     from django.db import connection
 
+    from telemetry import sql as telemetry_sql
     from telemetry.api import export
 
-    sql, params = export.fixes_sql(vessel_id, start, end, export.csv_line_sql())
+    sql, params = telemetry_sql.fixes_sql(vessel_id, start, end, telemetry_sql.csv_line_sql())
     header = export.CSV_HEADER.encode()
     if connection.vendor == "postgresql":
         return "COPY (…) TO STDOUT", _copy_blocks(connection, sql, params, header)

@@ -29,7 +29,6 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 
 COUNT = 10_000
-HANDLE_TARGET = 500  # issue 10: >= 500 SMS/s on SQLite
 PARSE_TARGET = 50_000  # issue 10: >= 50,000 SMS/s
 NUMBERS = 100
 BRIDGE_EVERY = 20  # SMS between the glider taking its commands
@@ -199,7 +198,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"SMS handling on {connection.vendor}, {args.count:,} SMS from {NUMBERS} numbers")
     print(
         f"  sms_handle_incoming: {ours:>8,.0f} SMS/s   baseline 3 bare ORM inserts: "
-        f"{base:>8,.0f} SMS/s   (target >= {HANDLE_TARGET:,})"
+        # No target: issue 10's 500 SMS/s was withdrawn (issue 17; a GSM modem takes
+        # seconds per SMS), so the handling reads through the ORM again.
+        f"{base:>8,.0f} SMS/s"
     )
     print("  outcomes: " + ", ".join(f"{k} {v:,}" for k, v in sorted(outcomes.items())))
     return 0

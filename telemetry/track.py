@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from telemetry import selectors
+from telemetry import sql
 from telemetry.overview import BATTERY, RAW, WIDTHS, Summary, cover, finest_level_within
 from telemetry.series import Downsampler, bucket_width
 from telemetry.simplify import Point, Segment, simplify
@@ -52,7 +52,7 @@ def track(*, vessel: Vessel, start: dt.datetime, end: dt.datetime, max_points: i
     lo, hi = start.timestamp(), end.timestamp()
     gap_s = gap_seconds(vessel)
     level = finest_level_within(lo, hi, int(max_points * TRACK_ROW_BUDGET_PER_POINT))
-    dirty = selectors.dirty_minutes(vessel.pk, lo, hi)
+    dirty = sql.dirty_minutes(vessel.pk, lo, hi)
     points, gaps, count = _candidates(vessel.pk, lo, hi, level, gap_s, dirty)
     if count <= TRACK_RAW_FIXES and len(points) < count:
         points, gaps, count = _candidates(vessel.pk, lo, hi, -1, gap_s)
@@ -73,13 +73,13 @@ def _candidates(
     count = 0
     for width, a, b in cover(lo, hi, level, dirty):
         if width == RAW:
-            for point in selectors.raw_points(vessel_id, a, b):
+            for point in sql.raw_points(vessel_id, a, b):
                 if points and point[0] - points[-1][0] > gap_s:
                     gaps.append(len(points) - 1)
                 points.append(point)
                 count += 1
             continue
-        for bucket in selectors.buckets(vessel_id, width, a, b, channels=False):
+        for bucket in sql.buckets(vessel_id, width, a, b, channels=False):
             kept = bucket.candidates()
             if points and kept[0][0] - points[-1][0] > gap_s:
                 gaps.append(len(points) - 1)
@@ -107,17 +107,17 @@ def series(*, vessel: Vessel, start: dt.datetime, end: dt.datetime, max_buckets:
     # The coarsest overview width that divides the bucket: each of its rows lies in one bucket.
     level = max((i for i, w in enumerate(WIDTHS) if width % w == 0), default=-1)
     sampler = Downsampler(lo, hi, width)
-    dirty = selectors.dirty_minutes(vessel.pk, lo, hi)
+    dirty = sql.dirty_minutes(vessel.pk, lo, hi)
     for piece_width, a, b in cover(lo, hi, level, dirty):
         if piece_width == RAW:
-            for t, _lat, _lon, battery, readings in selectors.raw_fixes(vessel.pk, a, b):
+            for t, _lat, _lon, battery, readings in sql.raw_fixes(vessel.pk, a, b):
                 if battery is not None:
                     sampler.add(BATTERY, t, battery)
                 for key, value in (readings or {}).items():
                     if isinstance(value, int | float) and not isinstance(value, bool):
                         sampler.add(key, t, value)
             continue
-        for bucket in selectors.buckets(vessel.pk, piece_width, a, b, points=False):
+        for bucket in sql.buckets(vessel.pk, piece_width, a, b, points=False):
             _add_bucket(sampler, bucket)
     return Series(
         width,

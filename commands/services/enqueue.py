@@ -8,19 +8,16 @@ from collections.abc import Sequence
 from typing import Any
 
 from django.conf import settings
-from django.db import connection, transaction
+from django.db import transaction
 from django.db.models import F
 from django.utils import timezone
 
-from commands import catalog
+from commands import catalog, sql
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import Status, check_transition
 from commands.models import Command, CommandEvent, Source
 from vessels import missions
 from vessels.models import Vessel
-
-# First key of the two-key PostgreSQL advisory lock that serialises navigation enqueues.
-_ENQUEUE_LOCK_SPACE = 0x5353  # "SS", Shoreside
 
 
 def command_validate(
@@ -131,20 +128,9 @@ def command_enqueue(
 
 
 def _serialise_navigation_enqueues(vessel_id: int) -> None:
-    """Make racing navigation enqueues for one vessel take turns, until the transaction ends.
-
-    Under PostgreSQL's READ COMMITTED, two racing enqueues each looked for older queued
-    navigation commands before the other had committed, and both stayed queued. A row lock
-    on the vessel would invert the lock order of cancel/ack (command row, then the vessel's
-    commands_version) and deadlock with them; an advisory lock only enqueues take cannot.
-    SQLite needs nothing: its IMMEDIATE transactions already run one at a time.
-    """
-    if connection.vendor == "postgresql":
-        with connection.cursor() as cursor:
-            cursor.execute(
-                "SELECT pg_advisory_xact_lock(%s, %s)",
-                [_ENQUEUE_LOCK_SPACE, vessel_id & 0x7FFFFFFF],
-            )
+    """Make racing navigation enqueues for one vessel take turns, until the transaction ends
+    (an advisory lock on PostgreSQL: why, in commands.sql.enqueue_lock)."""
+    sql.enqueue_lock(vessel_id)
 
 
 # The navigation kinds, for the supersede UPDATE.
@@ -187,30 +173,16 @@ def _record_enqueued(command: Command, now: dt.datetime, superseded: Sequence[in
 def _supersede_older_navigation(command: Command, now: dt.datetime) -> None:
     """Mark the vessel's other queued navigation commands superseded, then record the enqueue.
 
-    One conditional UPDATE … RETURNING (PostgreSQL; SQLite >= 3.35) instead of a read and an
-    update per command: the WHERE re-checks ``queued`` row by row (on PostgreSQL after any
-    lock wait), so a command a poll sent or an operator cancelled meanwhile is left alone,
-    exactly as :func:`_transition` would, and only the rows it changed get an event.
+    One conditional UPDATE (commands.sql.queued_supersede) re-checks ``queued`` row by row,
+    so a command a poll sent or an operator cancelled meanwhile is left alone, exactly as
+    :func:`_transition` would, and only the rows it changed get an event.
     """
     check_transition(Status.QUEUED, Status.SUPERSEDED)
-    table = connection.ops.quote_name(Command._meta.db_table)
-    kinds = ", ".join(["%s"] * len(_NAVIGATION_KINDS))
-    with connection.cursor() as cursor:
-        cursor.execute(
-            f"UPDATE {table} SET status = %s, finished_at = %s, result_detail = %s "
-            f"WHERE vessel_id = %s AND status = %s AND kind IN ({kinds}) AND id <> %s "
-            # A command the vessel made itself and only reports up is the vessel's to change.
-            "AND reported = %s RETURNING id",
-            [
-                Status.SUPERSEDED.value,
-                connection.ops.adapt_datetimefield_value(now),
-                _supersede_detail(command),
-                command.vessel_id,
-                Status.QUEUED.value,
-                *_NAVIGATION_KINDS,
-                command.pk,
-                False,
-            ],
-        )
-        superseded = sorted(row[0] for row in cursor.fetchall())
+    superseded = sql.queued_supersede(
+        vessel_id=command.vessel_id,
+        kinds=_NAVIGATION_KINDS,
+        keep=command.pk,
+        now=now,
+        detail=_supersede_detail(command),
+    )
     _record_enqueued(command, now, superseded)

@@ -60,12 +60,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from django.db import DatabaseError, OperationalError, connection
-from django.db.models import Q, QuerySet
+from django.db import DatabaseError, OperationalError
+from django.db.models import QuerySet
 from django.utils import timezone
 
-from commands.lifecycle import OPEN, Status
-from commands.models import Command, CommandEvent
+from commands.lifecycle import Status
+from commands.models import Command
 from commands.services import (
     command_complete,
     command_expire_due,
@@ -73,6 +73,7 @@ from commands.services import (
     command_mark_sent,
     command_note,
 )
+from sms import selectors, sql
 from sms.level2.bodies import response_meaning
 from sms.level2.codec import Address, Frame, MessageType
 from sms.level2.errors import CommandRefused
@@ -100,29 +101,10 @@ RETRY_WINDOW_S = 10.0
 # src_board) keep the same for a restarted bridge, to answer the C&C's retry identically.
 _HANDOVER = "handed over to the C&C in reply to request queued tid 0x{tid:04X} from {src}"
 _HANDOVER_UNKNOWN = "handed over to the C&C"
-_OPEN = [s.value for s in OPEN]
-OPEN_INDEX = "command_open_by_vessel"  # commands.models.Command.Meta.indexes
-_NO_INDEX = object()  # _query_waiting could not use OPEN_INDEX
+_NO_INDEX = object()  # _query_waiting could not use sms.sql.OPEN_INDEX
 # Queued commands past expires_at are never offered (the queries skip them); marking them
 # expired walks the vessel's history, so the bridge loop does it this often, not every request.
 EXPIRY_SWEEP_S = 60.0
-
-
-def _waiting_sql(columns: str, tail: str = "") -> str:
-    """SELECT ``columns`` over a vessel's queued, unexpired commands, through the partial index
-    of open commands (see :meth:`DatabaseCommandSource._query_waiting`)."""
-    qn = connection.ops.quote_name
-    hint = f" INDEXED BY {qn(OPEN_INDEX)}" if connection.vendor == "sqlite" else ""
-    # Literals, not parameters, so that SQLite can see the index's own condition (our own
-    # enum values: nothing from outside goes into the text).
-    open_statuses = ", ".join(f"'{value}'" for value in _OPEN)
-    status = qn("status")
-    expires = qn("expires_at")
-    return (
-        f"SELECT {columns} FROM {qn(Command._meta.db_table)}{hint}"
-        f" WHERE {qn('vessel_id')} = %s AND {status} IN ({open_statuses}) AND {status} = %s"
-        f" AND ({expires} IS NULL OR {expires} > %s){tail}"
-    )
 
 
 @dataclass(frozen=True)
@@ -287,58 +269,38 @@ class DatabaseCommandSource:
     # -- internals ------------------------------------------------------------------------------
 
     def _count_waiting(self, now: dt.datetime) -> int:
-        found = self._query_waiting("COUNT(*)", "", now)
-        return self._waiting(now).count() if found is _NO_INDEX else int(found)
+        found = self._query_waiting(sql.queued_count, now)
+        return self._waiting(now).count() if found is _NO_INDEX else found
 
     def _oldest_waiting(self, now: dt.datetime) -> Command | None:
-        qn = connection.ops.quote_name
-        tail = f" ORDER BY {qn('created_at')}, {qn('id')} LIMIT 1"
-        found = self._query_waiting(qn("id"), tail, now)
+        found = self._query_waiting(sql.queued_oldest_id, now)
         if found is _NO_INDEX:
             return self._waiting(now).order_by("created_at", "pk").first()
-        return None if found is None else Command.objects.filter(pk=found).order_by().first()
+        return None if found is None else selectors.bridge_command(found)
 
-    def _query_waiting(self, columns: str, tail: str, now: dt.datetime) -> Any:
-        """The first column of the first row of :func:`_waiting_sql` (None: no row), or
-        _NO_INDEX if the index cannot be used (the caller then asks the ORM).
-
-        The hot path: every status request counts. Measured (bench/bridge.py, 20,000 finished
-        commands): the ORM's COUNT took ~12 ms on SQLite, which walked the vessel's whole
-        history through the plain vessel_id index; it cannot match a partial index's condition
-        to bound parameters, and without ANALYZE statistics it does not prefer it even with
-        literals. So: the index's condition spelled out and, on SQLite, INDEXED BY (~0.1 ms).
-        Should the index ever change, the ORM takes over (logged) rather than the flag going
-        silent.
+    def _query_waiting(self, query: Callable[[int, dt.datetime], Any], now: dt.datetime) -> Any:
+        """``query`` (one of sms.sql's queued_* reads, written out for the status request's
+        hot count: see there), or _NO_INDEX if its index cannot be used (the caller then asks
+        the ORM). Should the index ever change, the ORM takes over (logged) rather than the
+        flag going silent.
         """
         if self._indexed_query_failed:
             return _NO_INDEX
-        params = [
-            self.vessel.pk,
-            Status.QUEUED.value,
-            connection.ops.adapt_datetimefield_value(now),
-        ]
         try:
-            with connection.cursor() as cursor:
-                cursor.execute(_waiting_sql(columns, tail), params)
-                row = cursor.fetchone()
+            return query(self.vessel.pk, now)
         except OperationalError as exc:
             if "no query solution" not in str(exc) and "no such index" not in str(exc):
                 raise
             self._indexed_query_failed = True
             log.error(
-                "queued commands: cannot use index %s (%s); the ORM takes over", OPEN_INDEX, exc
+                "queued commands: cannot use index %s (%s); the ORM takes over",
+                sql.OPEN_INDEX,
+                exc,
             )
             return _NO_INDEX
-        return None if row is None else row[0]
 
     def _waiting(self, now: dt.datetime) -> QuerySet[Command]:
-        # status IN (open) repeats the condition of the partial index command_open_by_vessel
-        # (vessel, created_at), so the planner can use it; status = queued then narrows.
-        return (
-            Command.objects.filter(vessel_id=self.vessel.pk, status__in=_OPEN)
-            .filter(status=Status.QUEUED)
-            .filter(Q(expires_at__isnull=True) | Q(expires_at__gt=now))
-        )
+        return selectors.bridge_commands_waiting(vessel_id=self.vessel.pk, now=now)
 
     def _quarantined(self, now: dt.datetime) -> bool:
         return self._quarantine_until is not None and now < self._quarantine_until
@@ -398,7 +360,7 @@ class DatabaseCommandSource:
     def _note(self, pk: int, detail: str, now: dt.datetime) -> None:
         """A note on a command's log; the log line already went out, so a refusal is logged."""
         try:
-            command_note(command=Command.objects.get(pk=pk), detail=detail, actor=ACTOR, now=now)
+            command_note(command=selectors.bridge_command(pk), detail=detail, actor=ACTOR, now=now)
         except DatabaseError as exc:
             log.error("note not saved (%s): %s", exc, detail)
 
@@ -422,7 +384,7 @@ class DatabaseCommandSource:
     def _settle(self, outcome: _Outcome) -> bool:
         """Write one outcome; if the database refuses, keep it for :meth:`flush_results`."""
         try:
-            command = Command.objects.get(pk=outcome.flight.pk)
+            command = selectors.bridge_command(outcome.flight.pk)
             if not command_complete(
                 command=command,
                 status=outcome.status,
@@ -464,11 +426,7 @@ class DatabaseCommandSource:
         the command that timed out could be credited to the next one after a quick restart).
         """
         self._restore_quarantine()
-        sent = list(
-            Command.objects.filter(vessel_id=self.vessel.pk, status=Status.SENT).order_by(
-                "-sent_at", "-pk"
-            )
-        )
+        sent = selectors.bridge_commands_sent(vessel_id=self.vessel.pk)
         if not sent:
             return
         newest, older = sent[0], sent[1:]
@@ -491,17 +449,8 @@ class DatabaseCommandSource:
 
     def _restore_quarantine(self) -> None:
         now = self.clock()
-        last = (
-            CommandEvent.objects.filter(
-                command__vessel_id=self.vessel.pk,
-                to_status=Status.FAILED,
-                actor=ACTOR,
-                detail=NO_ANSWER,
-                at__gt=now - self.quarantine,
-            )
-            .select_related("command")
-            .order_by("-at", "-pk")
-            .first()
+        last = selectors.bridge_last_timeout(
+            vessel_id=self.vessel.pk, actor=ACTOR, detail=NO_ANSWER, since=now - self.quarantine
         )
         if last is not None:
             command = last.command
@@ -511,12 +460,7 @@ class DatabaseCommandSource:
 
 def _handover_request(command: Command) -> tuple[int | None, Address | None]:
     """The tid and source of the request that took ``command``, from its sent event."""
-    event = (
-        CommandEvent.objects.filter(command=command, to_status=Status.SENT, actor=ACTOR)
-        .exclude(from_status=Status.SENT)
-        .order_by("-at", "-pk")
-        .first()
-    )
+    event = selectors.bridge_handover_event(command=command, actor=ACTOR)
     if event is None or None in (event.tid, event.src_task, event.src_board):
         return None, None
     return event.tid, Address(event.src_task, event.src_board)

@@ -63,6 +63,7 @@ def _run(args: argparse.Namespace) -> int:
     from sms.level2.runner import PtyPort, SerialLink
     from sms.level2.simulator import CcSimulator, RealClock, SimConfig
     from sms.modem.simulator import ModemServer
+    from sms.selectors import bridge_vessel
     from sms.services import authorised_number_authorise
     from vessels.models import Vessel
     from vessels.services import vessel_create
@@ -77,9 +78,10 @@ def _run(args: argparse.Namespace) -> int:
         logging.getLogger(noisy).setLevel(logging.WARNING)
     say = logging.getLogger("demo").info
     call_command("migrate", verbosity=0)
-    glider = Vessel.objects.filter(slug=DEMO_SLUG).first() or vessel_create(
-        slug=DEMO_SLUG, name="Demo glider", kind="wave_glider"
-    )
+    try:
+        glider = bridge_vessel(DEMO_SLUG)
+    except Vessel.DoesNotExist:
+        glider = vessel_create(slug=DEMO_SLUG, name="Demo glider", kind="wave_glider")
     authorised_number_authorise(
         number=DEMO_NUMBER, vessels=[glider], role="control", name="Demo phone"
     )

@@ -39,6 +39,7 @@ import serial
 from django.db import DatabaseError, close_old_connections, connection
 
 from edge_client import systemd
+from sms import selectors
 from sms.level2.codec import Frame
 from sms.level2.payload import (
     CommandCompleted,
@@ -203,7 +204,7 @@ class Bridge:
         sms_options: Mapping[str, object] | None = None,
     ) -> None:
         self.config = config
-        self.vessel = vessel or Vessel.objects.get(slug=config.vessel)
+        self.vessel = vessel or selectors.bridge_vessel(config.vessel)
         self.stop_event = threading.Event()
         self.readings = LatestReadings()
         self.source = DatabaseCommandSource(

@@ -53,12 +53,13 @@ from django.utils.dateparse import parse_datetime
 
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import FINAL, Status
-from commands.models import Command, CommandEvent, Source
+from commands.models import Command, Source
 from commands.services import command_enqueue, command_withdraw_queued
 from edge_client.client import COMMANDS_PATH, TELEMETRY_PATH, post_ack
 from edge_client.outbox import Outbox, settle_fix_batch
 from edge_client.transports.base import Transport, TransportError
 from edge_client.transports.http import HttpTransport
+from sms import selectors
 from sms.bridge.shore_config import ShoreConfig
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services import authorised_numbers_replace
@@ -239,10 +240,8 @@ class ShoreLink:
     def do_one_push_fixes(self) -> bool:
         """Send the next batch of local fixes after the watermark; True if a batch was settled."""
         after = self.outbox.counter(FIX_WATERMARK)
-        fixes = list(
-            Fix.objects.filter(vessel=self.vessel, pk__gt=after).order_by("pk")[
-                : self.config.batch_size
-            ]
+        fixes = selectors.bridge_fixes_after(
+            vessel=self.vessel, after=after, limit=self.config.batch_size
         )
         if not fixes:
             return False
@@ -311,9 +310,7 @@ class ShoreLink:
         command is handed to the C&C; so one still queued here that left the list was
         cancelled, superseded or expired on the shore, and must not reach the C&C.
         """
-        waiting = Command.objects.filter(
-            vessel=self.vessel, created_by=CREATED_BY, status=Status.QUEUED
-        )
+        waiting = selectors.bridge_commands_queued_by(vessel=self.vessel, created_by=CREATED_BY)
         for command in waiting:
             if str(command.uid) in listed:
                 continue
@@ -330,11 +327,11 @@ class ShoreLink:
             log.warning("shore command without a valid uid: %r", wire)
             return False
         key = str(uid)
-        local = Command.objects.filter(uid=uid).only("vessel_id").first()
-        if local is not None and local.vessel_id != self.vessel.pk:
+        owner = selectors.bridge_command_vessel(uid=uid)
+        if owner is not None and owner != self.vessel.pk:
             log.error("shore command %s has the uid of another vessel's command here", key)
             return False
-        if local is None:
+        if owner is None:
             try:
                 command_enqueue(
                     vessel=self.vessel,
@@ -361,12 +358,7 @@ class ShoreLink:
         running = dict(self.outbox.commands_interrupted())
         if not running:
             return False
-        found = {
-            str(c.uid): c
-            for c in Command.objects.filter(uid__in=list(running)).only(
-                "uid", "status", "result_detail"
-            )
-        }
+        found = selectors.bridge_commands_by_uid(running)
         queued = 0
         for key in running:
             command = found.get(key)
@@ -406,15 +398,14 @@ class ShoreLink:
         True if a batch was settled (entries the shore rejects are logged and skipped; a
         refused request is kept whole and the link backs off)."""
         after = self.outbox.counter(REPORT_WATERMARK)
-        events = list(
-            CommandEvent.objects.filter(command__vessel=self.vessel, pk__gt=after)
-            .exclude(command__created_by=CREATED_BY)
-            .order_by("pk")
-            .values_list("pk", "command_id")[: min(self.config.batch_size, REPORT_MAX_BATCH)]
+        last, commands = selectors.bridge_reported_commands_after(
+            vessel=self.vessel,
+            after=after,
+            not_by=CREATED_BY,
+            limit=min(self.config.batch_size, REPORT_MAX_BATCH),
         )
-        if not events:
+        if last is None:
             return False
-        commands = list(Command.objects.filter(pk__in={c for _, c in events}).order_by("pk"))
         try:
             response = self.transport.post_json(
                 REPORT_PATH, {"commands": [command_report_wire(c) for c in commands]}
@@ -439,7 +430,7 @@ class ShoreLink:
             )
             log.warning("shore rejected the report of command %s: %s", uid, rejected)
         self._count("commands_reported", len(commands) - len(answer["rejected"]))
-        self._set_counter(REPORT_WATERMARK, events[-1][0])
+        self._set_counter(REPORT_WATERMARK, last)
         return True
 
     # -- authorised numbers down ----------------------------------------------------------------
@@ -476,10 +467,8 @@ class ShoreLink:
         else:
             return True  # a long backlog of commands: the SMS log goes up once it is through
         after = self.outbox.counter(SMS_WATERMARK)
-        rows = list(
-            SmsMessage.objects.filter(vessel=self.vessel, pk__gt=after)
-            .prefetch_related("commands")
-            .order_by("pk")[: self.config.batch_size]
+        rows = selectors.bridge_sms_after(
+            vessel=self.vessel, after=after, limit=self.config.batch_size
         )
         held_back = timezone.now() - dt.timedelta(seconds=self.config.sms_pending_grace_s)
         batch: list[SmsMessage] = []

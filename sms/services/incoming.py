@@ -12,8 +12,7 @@ from dataclasses import dataclass, replace
 
 from django.conf import settings
 from django.db import IntegrityError, transaction
-from django.utils import timezone
-from django.utils.dateparse import parse_datetime
+from django.db.models import Exists, OuterRef
 
 from commands.errors import CommandError
 from commands.models import Command, Source
@@ -24,15 +23,10 @@ from sms.level2.inner import InnerCommandTable
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Outcome, Role, SmsMessage
 from sms.services import replies as replying
 from sms.services._common import (
-    _ALLOWED,
-    _NUMBERS,
-    _SMS,
     _UNSTORABLE,
     DETAIL_MAX,
     TEXT_STORE_MAX,
     _save_checked,
-    _scalar,
-    _stamp,
 )
 from sms.services.numbers import e164_or_blank
 from vessels.kinds import WAVE_GLIDER
@@ -139,11 +133,10 @@ def _delivery_key(
 
 
 def _delivered(key: str) -> SmsOutcome | None:
-    # Asked of every SMS and almost always "no": look for the key alone (the unique index
-    # answers it), and read the message only when there is one.
-    if _scalar(f"SELECT 1 FROM {_SMS} WHERE delivery_key = %s", [key]) is None:
+    # Asked of every SMS and almost always "no": one lookup on the unique index.
+    message = SmsMessage.objects.filter(delivery_key=key).first()
+    if message is None:
         return None
-    message = SmsMessage.objects.get(delivery_key=key)
     return SmsOutcome(
         message=message,
         replies=tuple(message.replies.order_by("pk")),
@@ -228,14 +221,13 @@ def _identify(e164: str, vessel: Vessel, now: dt.datetime) -> tuple[AuthorisedNu
     """The sender's entry (None: a stranger) and why it may not use this vessel ("" if it may)."""
     if not e164:
         return None, ""
-    # number is unique: at most one row. Written out (see _scalar): building it with the ORM,
-    # an Exists() annotation, took more time than any other step of handling an SMS.
-    found = AuthorisedNumber.objects.raw(
-        f"SELECT a.*, EXISTS (SELECT 1 FROM {_ALLOWED} v WHERE v.authorisednumber_id = a.id "
-        f"AND v.vessel_id = %s) AS for_vessel FROM {_NUMBERS} a WHERE a.number = %s",
-        [vessel.pk, e164],
+    # number is unique: at most one row, with whether it may use this vessel in the same read.
+    allowed = AuthorisedNumber.vessels.through.objects.filter(
+        authorisednumber=OuterRef("pk"), vessel=vessel
     )
-    entry = next(iter(found), None)
+    entry = (
+        AuthorisedNumber.objects.filter(number=e164).annotate(for_vessel=Exists(allowed)).first()
+    )
     if entry is None:
         return None, ""
     if not entry.active:
@@ -258,21 +250,22 @@ def _rate_limited_until(e164: str, now: dt.datetime) -> dt.datetime | None:
     if limit <= 0:
         return None
     since = now - dt.timedelta(seconds=window)
-    # The limit-th row, newest first, of the partial index sms_in_rate_count (its condition
-    # written as the index's own literals so the planner can use it): bounded however many a
-    # flood sent.
-    oldest = _scalar(
-        f"SELECT received_at FROM {_SMS} WHERE direction = 'in' AND NOT outcome = "
-        "'rate_limited' AND number_e164 = %s AND received_at > %s AND received_at <= %s "
-        "ORDER BY received_at DESC LIMIT 1 OFFSET %s",
-        [e164, _stamp(since), _stamp(now), limit - 1],
+    # The limit-th row, newest first, of the partial index sms_in_rate_count (the filter is
+    # the index's own condition): bounded however many a flood sent.
+    counted = (
+        SmsMessage.objects.filter(
+            direction=Direction.IN,
+            number_e164=e164,
+            received_at__gt=since,
+            received_at__lte=now,
+        )
+        .exclude(outcome=Outcome.RATE_LIMITED)
+        .order_by("-received_at")
+        .values_list("received_at", flat=True)
     )
+    oldest = next(iter(counted[limit - 1 : limit]), None)
     if oldest is None:
         return None
-    if isinstance(oldest, str):  # SQLite hands the raw text back
-        oldest = parse_datetime(oldest)
-    if timezone.is_naive(oldest):
-        oldest = timezone.make_aware(oldest, dt.UTC)
     return oldest + dt.timedelta(seconds=window)
 
 

@@ -19,7 +19,7 @@ from commands.models import Command, CommandEvent
 from sms import language, replies, selectors
 from sms.language import Answer, Item, ItemKind
 from sms.models import AuthorisedNumber, Direction, SendStatus, SmsMessage
-from sms.services._common import _SMS, _save_checked, _scalar
+from sms.services._common import _save_checked
 from vessels.models import Vessel
 
 _OPEN_STATUSES = frozenset({"queued", "sent", "acknowledged"})
@@ -84,7 +84,7 @@ def rate_notice(
     inside its own savepoint, leaving the rest of its transaction whole.
     """
     key = f"rate:{message.number_e164}:{until.astimezone(dt.UTC):%Y%m%dT%H%M%S.%f}"
-    if _scalar(f"SELECT 1 FROM {_SMS} WHERE delivery_key = %s", [key]) is not None:
+    if SmsMessage.objects.filter(delivery_key=key).exists():
         return None  # told already
     text = replies.rate_limit_notice(
         limit=settings.SMS_RATE_LIMIT,

@@ -358,12 +358,12 @@ def test_without_that_index_the_orm_counts_and_nothing_goes_silent(
 ) -> None:
     from django.db import connection
 
-    from sms.bridge import commands as module
+    from sms import sql
 
     if connection.vendor != "sqlite":
         pytest.skip("INDEXED BY is SQLite's")
     enqueue(glider, "light", state="ON")
-    monkeypatch.setattr(module, "OPEN_INDEX", "no_such_index")
+    monkeypatch.setattr(sql, "OPEN_INDEX", "no_such_index")
     machine, source = start(glider, clock)
     assert source.pending_count() == 1 and source._indexed_query_failed
     assert handed_over(feed(machine, source, queued(0x1A))) is not None

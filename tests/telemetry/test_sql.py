@@ -1,0 +1,119 @@
+"""telemetry.sql's export statements on whichever database the suite runs on (SQLite, and
+PostgreSQL with DATABASE_URL): the range they select and the text the database writes."""
+
+from __future__ import annotations
+
+import csv
+import datetime as dt
+import json
+
+from telemetry import sql
+from telemetry.models import Fix, TrackBucket, TrackDirty
+from tests.support import BASE
+from vessels.models import Vessel
+
+
+def fix(vessel: Vessel, seconds: float, **fields: object) -> Fix:
+    values: dict[str, object] = {"lat": -31.5, "lon": 115.25, "readings": {}, "received_at": BASE}
+    values.update(fields)
+    return Fix.objects.create(
+        vessel=vessel, recorded_at=BASE + dt.timedelta(seconds=seconds), **values
+    )
+
+
+def lines(vessel: Vessel, line: str, start: dt.datetime | None, end: dt.datetime | None) -> list:
+    return [text for chunk in sql.export_lines(vessel.pk, start, end, line) for text in chunk]
+
+
+def test_the_range_is_half_open_in_time_order_and_one_vessels(
+    vessel_a: Vessel, vessel_b: Vessel
+) -> None:
+    for seconds in (30, 0, 10, 20):
+        fix(vessel_a, seconds)
+    fix(vessel_b, 10)
+    start, end = BASE + dt.timedelta(seconds=10), BASE + dt.timedelta(seconds=30)
+    times = [row[0] for chunk in sql.export_rows(vessel_a.pk, start, end) for row in chunk]
+    assert times == ["2026-11-23T08:00:10Z", "2026-11-23T08:00:20Z"]
+    assert len(lines(vessel_a, sql.csv_line_sql(), None, None)) == 4  # open both sides
+    assert len(lines(vessel_a, sql.csv_line_sql(), start, None)) == 3
+
+
+def test_a_row_carries_its_unix_time_numbers_and_readings(vessel_a: Vessel) -> None:
+    fix(vessel_a, 1.5, heading_deg=90.0, battery_v=12.5, readings={"t": 19.5})
+    [[row]] = list(sql.export_rows(vessel_a.pk, BASE, BASE + dt.timedelta(minutes=1)))
+    iso, epoch, lat, lon, heading, speed, battery, readings = row
+    assert iso == "2026-11-23T08:00:01.500000Z"
+    assert epoch == (BASE + dt.timedelta(seconds=1.5)).timestamp()
+    assert (lat, lon, heading, speed, battery) == (-31.5, 115.25, 90.0, None, 12.5)
+    assert json.loads(readings) == {"t": 19.5}
+
+
+def test_the_csv_line_is_the_databases_text_of_each_cell(vessel_a: Vessel) -> None:
+    fix(vessel_a, 0, speed_mps=1.25, readings={"say": 'a "b"'})
+    [line] = lines(vessel_a, sql.csv_line_sql(), None, None)
+    [cells] = list(csv.reader([line]))
+    assert cells[0] == "2026-11-23T08:00:00Z"
+    assert [float(c) if c else None for c in cells[1:6]] == [-31.5, 115.25, None, 1.25, None]
+    assert json.loads(cells[6]) == {"say": 'a "b"'}
+
+
+def test_the_feature_line_is_a_geojson_point_with_every_value(vessel_a: Vessel) -> None:
+    fix(vessel_a, 0, battery_v=12.5, readings={"t": 19.5})
+    [line] = lines(vessel_a, sql.feature_line_sql(), None, None)
+    assert json.loads(line) == {
+        "type": "Feature",
+        "geometry": {"type": "Point", "coordinates": [115.25, -31.5]},
+        "properties": {
+            "time": "2026-11-23T08:00:00Z",
+            "heading_deg": None,
+            "speed_mps": None,
+            "battery_v": 12.5,
+            "readings": {"t": 19.5},
+        },
+    }
+
+
+# -- the track overview's reads ------------------------------------------------------------------
+
+
+def test_raw_fixes_and_points_are_the_half_open_range_by_time_in_unix_seconds(
+    vessel_a: Vessel, vessel_b: Vessel
+) -> None:
+    for seconds in (20.25, 0, 10):
+        fix(vessel_a, seconds, battery_v=12.5, readings={"t": seconds})
+    fix(vessel_b, 10)
+    lo, hi = BASE.timestamp(), BASE.timestamp() + 20.25
+    assert sql.raw_points(vessel_a.pk, lo, hi) == [
+        (lo, -31.5, 115.25),
+        (lo + 10, -31.5, 115.25),
+    ]
+    assert sql.raw_fixes(vessel_a.pk, lo, hi + 1)[2] == (hi, -31.5, 115.25, 12.5, {"t": 20.25})
+
+
+def test_buckets_read_the_width_asked_and_leave_the_unasked_column_out(vessel_a: Vessel) -> None:
+    start = int(BASE.timestamp())
+    point = [start + 1.0, -31.5, 115.25]
+    for width, at in ((60, start), (60, start + 60), (600, start)):
+        TrackBucket.objects.create(
+            vessel=vessel_a,
+            width=width,
+            start=at,
+            count=2,
+            points=[point, point, point, point, point, point, None, None],
+            channels={"": [12.0, 13.0, 25.0, 2.0]},
+        )
+    [one] = sql.buckets(vessel_a.pk, 60, start, start + 60)
+    assert (one.start, one.count, one.first, one.gap) == (start, 2, tuple(point), None)
+    assert one.channels == {"": [12.0, 13.0, 25.0, 2.0]}
+    [plain] = sql.buckets(vessel_a.pk, 600, start, start + 1, points=False, channels=False)
+    assert (plain.first, plain.channels) == (None, {})
+
+
+def test_dirty_minutes_are_those_touching_the_range(vessel_a: Vessel, vessel_b: Vessel) -> None:
+    start = int(BASE.timestamp())
+    for minute in (-2, -1, 0, 1, 3):
+        TrackDirty.objects.create(vessel=vessel_a, start=start + 60 * minute)
+    TrackDirty.objects.create(vessel=vessel_b, start=start)
+    # The minute before ends where the range starts; the one at its end starts after it.
+    assert sql.dirty_minutes(vessel_a.pk, start, start + 120) == [start, start + 60]
+    assert sql.dirty_minutes(vessel_a.pk, start + 30, start + 90) == [start, start + 60]
