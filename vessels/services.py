@@ -122,11 +122,12 @@ def vessel_record_fix_statement(
     """:func:`vessel_record_fix` as (sql, params), for a caller that runs it as part of one
     statement of its own (ingest on PostgreSQL: fixes and vessel in one round trip).
     ``also_if``, a parameterless SQL condition, must hold too for the fix to be taken."""
-    meta = Vessel._meta
-    prep_time = meta.get_field("last_fix_at").get_db_prep_save
-    at = prep_time(fix_at, connection)
-    summary_value = meta.get_field("last_fix").get_db_prep_save(summary, connection)
-    params = [prep_time(seen_at, connection), at, summary_value, at, at, vessel_id]
+    # The backend's adapters, straight (both fields are plain: no encoder, aware UTC times):
+    # the field layer around them cost a tenth of a single-fix post (profiled, bench.server).
+    ops = connection.ops
+    at = ops.adapt_datetimefield_value(fix_at)
+    summary_value = ops.adapt_json_value(summary, None)
+    params = [ops.adapt_datetimefield_value(seen_at), at, summary_value, at, at, vessel_id]
     return _record_fix_sql(connection.vendor, also_if), params
 
 

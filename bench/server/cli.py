@@ -15,7 +15,7 @@ import bench.server as package
 from bench.server.constants import HOST
 from bench.server.fixes import Clock
 from bench.server.helper import django_helper
-from bench.server.phases import measure_ingest, measure_poll, measure_soak
+from bench.server.phases import measure_ingest, measure_poll, measure_single, measure_soak
 from bench.server.report import (
     Figures,
     count_stored,
@@ -41,6 +41,11 @@ def bench_db(db: str, opts: argparse.Namespace) -> None:
     start_server(stack)
     print(f"### gunicorn 2 x {stack.worker_class} on {HOST}:{stack.port}", flush=True)
     clock = Clock()
+    if opts.single_only:
+        print(f"- single-fix posts, load average {os.getloadavg()[0]:.1f}", flush=True)
+        measure_single(stack, opts, clock)
+        CLEANUP.run()
+        return
     figures = Figures()
     print("- ingest", flush=True)
     report_ingest(measure_ingest(stack, opts, clock), figures)
@@ -65,6 +70,14 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--quick", action="store_true", help="short phases and a 20 s mixed run")
     p.add_argument("--soak-seconds", type=float, help="mixed-run length (default 300, quick 20)")
     p.add_argument("--phase-seconds", type=float, help="each wrk phase (default 20, quick 3)")
+    p.add_argument(
+        "--rounds", type=int, default=3, help="interleaved rounds of single posts (ours, DRF)"
+    )
+    p.add_argument(
+        "--single-only",
+        action="store_true",
+        help="only the interleaved single-post rounds (with --quick: about a minute per database)",
+    )
     p.add_argument("--worker-class", choices=["sync", "gthread"], default="sync")
     p.add_argument("--threads", type=int, default=4, help="threads per gthread worker")
     p.add_argument("--connections", type=int, default=4, help="wrk connections for ingest")
@@ -77,6 +90,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     opts.warmup_seconds = 1.0 if opts.quick else 3.0
     if opts.soak_seconds is None:
         opts.soak_seconds = 20.0 if opts.quick else 300.0
+    if not 1 <= opts.rounds <= 50:
+        p.error("--rounds must be between 1 and 50")
     for name in ("phase_seconds", "soak_seconds"):
         if not 1 <= getattr(opts, name) <= 3600:
             p.error(f"--{name.replace('_', '-')} must be between 1 and 3600")

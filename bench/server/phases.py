@@ -29,7 +29,7 @@ from bench.server.constants import (
 from bench.server.fixes import Clock, backlog_upload
 from bench.server.mixed import Sample, soak_async
 from bench.server.stack import Stack
-from bench.server.wrk import WrkResult, wrk
+from bench.server.wrk import WrkResult, combine, wrk
 
 
 @dataclass
@@ -76,8 +76,6 @@ def measure_ingest(stack: Stack, opts: argparse.Namespace, clock: Clock) -> Inge
     for name, path, slug, batch in (
         ("batch", TELEMETRY, "ingest-batch", BATCH),
         ("drf-batch", DRF_TELEMETRY, "drf-batch", BATCH),
-        ("single", TELEMETRY, "ingest-single", 1),
-        ("drf-single", DRF_TELEMETRY, "drf-single", 1),
     ):
         warmup = wrk(
             stack,
@@ -102,6 +100,9 @@ def measure_ingest(stack: Stack, opts: argparse.Namespace, clock: Clock) -> Inge
             f"p50 {r.p50_ms:.1f} ms  p99 {r.p99_ms:.1f} ms  CPU/req server {r.cpu_ms:.2f} ms, "
             f"wrk {r.client_cpu_ms:.2f} ms  bad {r.bad} err {r.errors}"
         )
+    single = measure_single(stack, opts, clock)
+    results["single"], results["drf-single"] = single.ours, single.drf
+    warm_ok.update(single.warm_ok)
     hello = wrk(stack, HELLO, "get.lua", ["200"], seconds=dur, connections=conns)
     results["hello"] = hello
     print(
@@ -115,6 +116,55 @@ def measure_ingest(stack: Stack, opts: argparse.Namespace, clock: Clock) -> Inge
     )
     print(f"  backlog     {seq:.2f} s ({seq_accepted} accepted); DRF {drf_seq:.2f} s")
     return IngestRun(conns, results, warm_ok, (seq, seq_accepted), (drf_seq, drf_accepted))
+
+
+@dataclass
+class SingleRun:
+    ours: WrkResult  # the rounds combined
+    drf: WrkResult
+    ratios: list[float]  # ours / DRF's posts per second, round by round
+    warm_ok: dict[str, int]
+
+
+def single_round_order(rounds: int) -> list[str]:
+    """ours, DRF, DRF, ours, ours, DRF…: each side runs first as often as second, so a load
+    that comes and goes on a shared machine falls on both."""
+    order: list[str] = []
+    for r in range(rounds):
+        order += ["ours", "drf"] if r % 2 == 0 else ["drf", "ours"]
+    return order
+
+
+def measure_single(stack: Stack, opts: argparse.Namespace, clock: Clock) -> SingleRun:
+    """Single-fix posts, ours and DRF's, in interleaved rounds of --phase-seconds each."""
+    sides = {"ours": (TELEMETRY, "ingest-single"), "drf": (DRF_TELEMETRY, "drf-single")}
+    conns = opts.connections
+
+    def run(side: str, seconds: float) -> WrkResult:
+        path, slug = sides[side]
+        args = ["1", str(clock.take(2 * 10**6)), stack.keys[slug]]
+        return wrk(stack, path, "ingest.lua", args, seconds=seconds, connections=conns)
+
+    warm_ok = {sides[side][1]: run(side, opts.warmup_seconds).ok for side in sides}
+    rounds: dict[str, list[WrkResult]] = {"ours": [], "drf": []}
+    for side in single_round_order(opts.rounds):
+        rounds[side].append(run(side, opts.phase_seconds))
+    ratios = [
+        o.rps / d.rps if d.rps else 0.0 for o, d in zip(rounds["ours"], rounds["drf"], strict=True)
+    ]
+    ours, drf = combine(rounds["ours"]), combine(rounds["drf"])
+    for name, r in (("single", ours), ("drf-single", drf)):
+        print(
+            f"  {name:<11} {r.rps:>10,.1f} posts/s  p50 {r.p50_ms:.1f} ms  p99 {r.p99_ms:.1f} ms  "
+            f"CPU/req server {r.cpu_ms:.2f} ms, wrk {r.client_cpu_ms:.2f} ms  "
+            f"bad {r.bad} err {r.errors}"
+        )
+    print(
+        f"  single/DRF  {ours.rps / drf.rps if drf.rps else 0:.2f}x over {opts.rounds} "
+        f"interleaved rounds (per round: {', '.join(f'{x:.2f}' for x in ratios)})",
+        flush=True,
+    )
+    return SingleRun(ours, drf, ratios, warm_ok)
 
 
 def measure_poll(stack: Stack, opts: argparse.Namespace) -> PollRun:

@@ -35,6 +35,30 @@ class WrkResult:
         return self.ok / self.seconds if self.seconds else 0.0
 
 
+def combine(runs: list[WrkResult]) -> WrkResult:
+    """Several rounds of one load as one result: counts and seconds add up, latencies are
+    weighted by each round's requests (an approximation: wrk reports no histogram)."""
+    total = max(1, sum(r.requests for r in runs))
+
+    def weighted(name: str) -> float:
+        return sum(getattr(r, name) * r.requests for r in runs) / total
+
+    return WrkResult(
+        requests=sum(r.requests for r in runs),
+        seconds=sum(r.seconds for r in runs),
+        ok=sum(r.ok for r in runs),
+        bad=sum(r.bad for r in runs),
+        errors=sum(r.errors for r in runs),
+        first_bad=next((r.first_bad for r in runs if r.first_bad), ""),
+        p50_ms=weighted("p50_ms"),
+        p90_ms=weighted("p90_ms"),
+        p99_ms=weighted("p99_ms"),
+        max_ms=max((r.max_ms for r in runs), default=0.0),
+        cpu_ms=weighted("cpu_ms"),
+        client_cpu_ms=weighted("client_cpu_ms"),
+    )
+
+
 def tree_cpu_seconds(pid: int) -> float:
     """User + system CPU seconds of ``pid`` and its descendants so far (Linux /proc)."""
     total = 0.0

@@ -12,7 +12,7 @@ from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 from rest_framework.test import APIClient
 
-from telemetry.models import Fix
+from telemetry.models import Fix, TrackDirty
 from tests.support import TELEMETRY, MakeFix, iso
 from vessels.models import Vessel
 
@@ -264,18 +264,46 @@ def test_a_non_standard_number_costs_only_its_own_fix(
     assert Fix.objects.filter(vessel=vessel_a).count() == 1
 
 
-def test_a_single_fix_post_is_two_statements_on_postgresql(
+# What one single-fix post sends, by database (statement kinds, in order). PostgreSQL: the key
+# lookup, then the fix, its overview mark and the vessel's last fix in ONE statement (CTEs, no
+# BEGIN/COMMIT: one round trip). SQLite cannot put writes in CTEs; its statements are calls
+# into the library, not round trips: one transaction, one statement per table written. The key's
+# last use (once a minute) and the throttle counts (the cache) are not among them.
+# Benchmark: `python -m bench.server --single-only` (issue 17 item 8).
+SINGLE_POST_STATEMENTS = {
+    "postgresql": ["SELECT", "WITH"],
+    "sqlite": ["SELECT", "BEGIN", "INSERT", "INSERT", "UPDATE", "COMMIT"],
+}
+
+
+@pytest.mark.django_db(transaction=True)
+def test_a_single_fix_post_sends_the_fewest_statements(
     boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix
 ) -> None:
-    """Key lookup, then the fix and the vessel's last fix in one statement (no BEGIN/COMMIT):
-    a legacy client posts one fix per request, so round trips are its cost."""
-    if connection.vendor != "postgresql":
-        pytest.skip("SQLite has no round trips; it keeps one transaction per batch")
+    """Outside a test transaction, so BEGIN and COMMIT show where the server sends them."""
     boat_a.post(TELEMETRY, [make_fix(time="2026-11-23T09:00:00Z")], format="json")  # key touch
     with CaptureQueriesContext(connection) as queries:
         response = boat_a.post(TELEMETRY, [make_fix()], format="json")
     assert response.json()["accepted"] == 1
-    assert len(queries) == 2, [q["sql"][:80] for q in queries]
+    kinds = [q["sql"].split(None, 1)[0].upper() for q in queries]
+    assert kinds == SINGLE_POST_STATEMENTS[connection.vendor], [q["sql"][:80] for q in queries]
     vessel_a.refresh_from_db()
     assert vessel_a.last_fix_at == dt.datetime(2026, 11, 23, 10, tzinfo=dt.UTC)
     assert vessel_a.last_fix["battery_v"] == 12.6
+    assert TrackDirty.objects.filter(vessel=vessel_a).count() == 2  # 09:00 and 10:00 marked
+
+
+@pytest.mark.django_db(transaction=True)
+def test_a_repeated_single_fix_post_writes_only_the_last_seen(
+    boat_a: APIClient, vessel_a: Vessel, make_fix: MakeFix
+) -> None:
+    """A store-and-forward retry: a counted duplicate, no new mark, the vessel seen again."""
+    boat_a.post(TELEMETRY, [make_fix()], format="json")
+    TrackDirty.objects.all().delete()
+    Vessel.objects.filter(pk=vessel_a.pk).update(last_seen_at=None)
+    response = boat_a.post(TELEMETRY, [make_fix()], format="json")
+    assert (response.json()["accepted"], response.json()["duplicates"]) == (0, 1)
+    assert not TrackDirty.objects.exists()
+    vessel_a.refresh_from_db()
+    assert vessel_a.last_seen_at is not None
+    assert vessel_a.last_fix_at == dt.datetime(2026, 11, 23, 10, tzinfo=dt.UTC)
