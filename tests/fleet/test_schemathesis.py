@@ -183,8 +183,12 @@ def report_the_tally(request: pytest.FixtureRequest) -> Iterator[None]:
         f"{TALLY['requests']} requests ({classes}), {EXAMPLES} random examples per operation"
     )
     reporter = request.config.pluginmanager.get_plugin("terminalreporter")
-    if reporter is not None:
-        reporter.write_line(line)
+    capture = request.config.pluginmanager.get_plugin("capturemanager")
+    if reporter is not None and capture is not None:
+        # A fixture's teardown runs under pytest's output capture: lift it for the line.
+        with capture.global_and_fixture_disabled():
+            reporter.ensure_newline()
+            reporter.write_line(line)
 
 
 @pytest.mark.slow
