@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time
+from itertools import pairwise
 
 import pytest
 
@@ -146,5 +147,5 @@ def test_upload_retries_and_give_up_are_on_the_injected_clock(on_a_clock):
     # Asked again each time UPLOAD_RETRY_S passes unanswered, until it gives up.
     assert len(requests) == pytest.approx(UPLOAD_GIVE_UP_S / (UPLOAD_RETRY_S + DT), abs=2)
     # (each heard up to a step after it was sent)
-    gaps = [later - earlier for earlier, later in zip(requests, requests[1:])]
+    gaps = [later - earlier for earlier, later in pairwise(requests)]
     assert all(gap >= UPLOAD_RETRY_S - DT for gap in gaps), gaps
