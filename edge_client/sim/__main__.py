@@ -87,6 +87,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--seed", type=int, help="random seed for fault injection")
     p.add_argument(
+        "--time-scale",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="run the vehicle's clock X times faster than real time (motion, stream rates, "
+        "delays, mission timeouts; for tests)",
+    )
+    p.add_argument(
         "--status-every",
         type=float,
         default=0.0,
@@ -103,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
         ekf_failsafe_s=args.ekf_failsafe,
         request_int=args.request_int, drop=args.drop,
         dup=args.dup, refuse_modes=tuple(args.refuse_mode), reject_mission=args.reject_mission,
-        seed=args.seed,
+        seed=args.seed, time_scale=args.time_scale,
     )  # fmt: skip
     stop = threading.Event()
     for signum in (signal.SIGTERM, signal.SIGINT):

@@ -83,7 +83,7 @@ def stored(item: Item) -> Item:
 
 @dataclass(frozen=True)
 class Event:
-    """Something the mission did, at ``t`` on the simulator's clock (time.monotonic)."""
+    """Something the mission did, at ``t`` on the simulator's clock (its ``monotonic``)."""
 
     t: float
     kind: str  # "arrived", "reached" (MISSION_ITEM_REACHED sent), "speed", "complete"

@@ -47,6 +47,10 @@ mission-files.md, mavlink.io common.xml), not like a physics model:
   ``refuse_modes`` (COMMAND_ACK DENIED), ``reject_mission`` (MISSION_ACK with that code after
   the last item), ``lose`` (message names never sent, e.g. MISSION_ITEM_REACHED), ``muted``
   (stops talking, as a silent autopilot).
+- Time: everything above (motion, stream rates, start-up delays, holds, the upload's retry and
+  give-up, SYSTEM_TIME and time_boot_ms) is read from one :class:`~edge_client.sim.clock.SimClock`,
+  the host's by default; ``time_scale`` (or a ``clock`` of a test's own) runs the vehicle's
+  world faster than real time with the same messages in the same order.
 """
 
 from __future__ import annotations
@@ -55,7 +59,6 @@ import math
 import os
 import random
 import threading
-import time
 from collections import deque
 from typing import Any
 
@@ -64,6 +67,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
 from edge_client.geo import bearing_deg, distance_m, offset  # noqa: E402 (stdlib-only module)
+from edge_client.sim.clock import ScaledClock, SimClock  # noqa: E402
 from edge_client.sim.mission import (  # noqa: E402 (after MAVLINK20 is chosen)
     FIRST_ITEM,
     MAX_MISSION_ITEMS,
@@ -126,7 +130,12 @@ class RoverSim(MissionProtocol):
         wp_radius_m: float = DEFAULT_WP_RADIUS_M,
         seed: int | None = None,
         system: int = 1,
+        time_scale: float = 1.0,
+        clock: SimClock | None = None,
     ) -> None:
+        # One clock for the whole vehicle: a faster one speeds up motion, streams, start-up and
+        # mission timeouts together, so their order stays what it is in real time.
+        self.clock = clock or ScaledClock(time_scale)
         self.conns = [
             mavutil.mavlink_connection(
                 ep, source_system=system, source_component=1, dialect="ardupilotmega"
@@ -167,7 +176,7 @@ class RoverSim(MissionProtocol):
         self.rtl_arrived = False
         self.muted = False
         self.rng = random.Random(seed)
-        self.boot = time.monotonic()
+        self.boot = self.clock.monotonic()
         self.intervals = {  # message id → seconds
             mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 1 / rate_hz,
             mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
@@ -183,7 +192,7 @@ class RoverSim(MissionProtocol):
         self.uploaded: dict[str, Any] | None = None  # the last finished one, to re-ack
         self.peers: dict[int, tuple[int, int]] = {}
         self.counts = {"sent": 0, "dropped": 0, "duplicated": 0, "received": 0}
-        self._last_step = time.monotonic()
+        self._last_step = self.clock.monotonic()
         self._lock = threading.Lock()
 
     # -- running ------------------------------------------------------------------------------
@@ -199,10 +208,10 @@ class RoverSim(MissionProtocol):
             conn.close()
 
     def step(self, now: float | None = None) -> None:
-        """One turn: read, move, stream. ``now`` (time.monotonic scale) lets a test drive the
-        simulator on a clock of its own, faster than real time."""
+        """One turn: read, move, stream. ``now`` (the clock's monotonic scale) lets a test
+        drive the simulator step by step at the times it chooses."""
         with self._lock:
-            now = time.monotonic() if now is None else now
+            now = self.clock.monotonic() if now is None else now
             for conn in self.conns:
                 while (msg := conn.recv_msg()) is not None:
                     self._receive(conn, msg, now)
@@ -217,7 +226,7 @@ class RoverSim(MissionProtocol):
         return MODE_NAMES.get(self.mode, str(self.mode))
 
     def boot_ms(self) -> int:
-        return int((time.monotonic() - self.boot) * 1000)
+        return int((self.clock.monotonic() - self.boot) * 1000)
 
     def gps_fixed(self, now: float) -> bool:
         """GPS 3D fix, EKF origin and home set: half way to a good position estimate."""
@@ -332,8 +341,8 @@ class RoverSim(MissionProtocol):
         if self._due(mavlink.MAVLINK_MSG_ID_GPS_RAW_INT, now):
             fix = GPS_FIX_3D if self.gps_fixed(now) else GPS_FIX_NONE
             lat, lon = (int(self.lat * 1e7), int(self.lon * 1e7)) if fix == GPS_FIX_3D else (0, 0)
-            self._emit(None, "gps_raw_int", int(time.time() * 1e6), fix, lat, lon, 0, 120, 200,
-                       0, 0, 10 if fix == GPS_FIX_3D else 0)  # fmt: skip
+            self._emit(None, "gps_raw_int", int(self.clock.time() * 1e6), fix, lat, lon, 0, 120,
+                       200, 0, 0, 10 if fix == GPS_FIX_3D else 0)  # fmt: skip
         if self._due(mavlink.MAVLINK_MSG_ID_SYS_STATUS, now):
             healthy = (mavlink.MAV_SYS_STATUS_SENSOR_GPS if self.gps_fixed(now) else 0) | (
                 mavlink.MAV_SYS_STATUS_AHRS if self.position_ok(now) else 0
@@ -358,7 +367,7 @@ class RoverSim(MissionProtocol):
         if self._due(mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, now):
             self._send_current()
         if self._due(mavlink.MAVLINK_MSG_ID_SYSTEM_TIME, now):
-            self._emit(None, "system_time", int(time.time() * 1e6), self.boot_ms())
+            self._emit(None, "system_time", int(self.clock.time() * 1e6), self.boot_ms())
         if self._due(mavlink.MAVLINK_MSG_ID_SCALED_PRESSURE, now):
             self._emit(None, "scaled_pressure", self.boot_ms(), 1013.25, 0.0, 1850)
 
@@ -393,7 +402,7 @@ class RoverSim(MissionProtocol):
     def _send_origin(self, conn: Any) -> None:
         lat, lon = self.home
         self._emit(conn, "gps_global_origin", int(lat * 1e7), int(lon * 1e7), 0,
-                   int(time.time() * 1e6))  # fmt: skip
+                   int(self.clock.time() * 1e6))  # fmt: skip
 
     # -- motion -------------------------------------------------------------------------------
 

@@ -408,6 +408,10 @@ def test_a_newer_navigation_command_replaces_the_active_one(
     assert statuses(outbox, second.uid) == ["acknowledged", "done"]
 
 
+# The mission tests wait on the boat driving and holding, not on the client's own timeouts:
+# run the simulated Rover's clock (motion, holds, streams, its timeouts) four times as fast.
+FAST = 4.0
+
 WAYPOINTS = [
     {"lat": -31.9795, "lon": 115.8205, "hold_s": 0, "radius_m": 3},
     {"lat": -31.9790, "lon": 115.8200, "hold_s": 0.5, "radius_m": None},
@@ -420,7 +424,7 @@ WAYPOINTS = [
 def test_mission_is_uploaded_with_home_first_and_run_to_the_end(
     make_sim, make_link, outbox, commands_config, request_int
 ):
-    sim = make_sim(request_int=request_int)
+    sim = make_sim(request_int=request_int, time_scale=FAST)
     link = make_link(sim.endpoint)
     executor = Executor(link, outbox, commands_config)
     c = cmd("mission", mission_id=7, items=WAYPOINTS, loop=False)
@@ -447,7 +451,7 @@ FIVE = [
 def test_mission_progress_is_in_the_operators_waypoint_numbers(
     make_sim, make_link, outbox, commands_config, caplog
 ):
-    sim = make_sim()
+    sim = make_sim(time_scale=FAST)
     link = make_link(sim.endpoint)
     executor = Executor(link, outbox, commands_config)
     c = cmd("mission", mission_id=5, items=FIVE, end="stop")
@@ -473,7 +477,7 @@ def test_mission_progress_is_in_the_operators_waypoint_numbers(
 def test_a_mission_ending_home_is_done_once_the_final_rtl_has_brought_the_boat_home(
     make_sim, make_link, outbox, commands_config
 ):
-    sim = make_sim()
+    sim = make_sim(time_scale=FAST)
     link = make_link(sim.endpoint)
     executor = Executor(link, outbox, commands_config)
     items = [{**WAYPOINTS[0], "speed_mps": 20.0}, *WAYPOINTS[1:]]
@@ -499,7 +503,7 @@ def test_a_mission_ending_home_is_done_once_the_final_rtl_has_brought_the_boat_h
 def test_a_mission_whose_item_reached_reports_are_lost_ends_on_rovers_own_words(
     make_sim, make_link, outbox, commands_config, end, said
 ):
-    sim = make_sim(lose=("MISSION_ITEM_REACHED",))
+    sim = make_sim(lose=("MISSION_ITEM_REACHED",), time_scale=FAST)
     link = make_link(sim.endpoint)
     executor = Executor(link, outbox, commands_config)
     c = cmd("mission", mission_id=3, items=WAYPOINTS, end=end)

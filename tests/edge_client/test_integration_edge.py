@@ -1,7 +1,7 @@
 """End to end, all real processes: the live Django server, the simulator, the edge client.
 
-The simulator runs fast (50 m/s, 10 Hz) and the client samples and polls every 0.3 s so the
-whole file stays well under a minute.
+The simulator runs fast (50 m/s, 10 Hz; the mission tests on a clock 4x real time) and the
+client samples and polls every 0.3 s so the whole file stays well under a minute.
 """
 
 from __future__ import annotations
@@ -37,6 +37,11 @@ pytestmark = [pytest.mark.django_db(transaction=True), pytest.mark.slow]
 
 HOME = (-31.9800, 115.8200)
 PERIOD = "0.3"
+# The mission tests wait on the boat driving and holding: their simulator's clock runs this
+# many times as fast. Holds are long enough on it that the client, sampling every PERIOD of
+# real time, still takes two or more fixes at each waypoint.
+FAST = "4"
+HOLD_S = 2.5  # Rover keeps 3 whole seconds: 0.75 s of real time at 4x
 
 
 @pytest.fixture
@@ -145,17 +150,18 @@ def test_a_command_waiting_when_the_boat_boots_is_carried_out(live_server, boat,
 
 
 FIVE = [
-    {"lat": -31.9795, "lon": 115.8205, "hold_s": 0.5, "radius_m": 2},
-    {"lat": -31.9790, "lon": 115.8212, "hold_s": 0.5, "radius_m": 2},
-    {"lat": -31.9798, "lon": 115.8218, "hold_s": 0.5, "radius_m": 3},
-    {"lat": -31.9806, "lon": 115.8211, "hold_s": 0.5, "radius_m": 2},
-    {"lat": -31.9803, "lon": 115.8203, "hold_s": 0.5, "radius_m": 2},
+    {"lat": -31.9795, "lon": 115.8205, "hold_s": HOLD_S, "radius_m": 2},
+    {"lat": -31.9790, "lon": 115.8212, "hold_s": HOLD_S, "radius_m": 2},
+    {"lat": -31.9798, "lon": 115.8218, "hold_s": HOLD_S, "radius_m": 3},
+    {"lat": -31.9806, "lon": 115.8211, "hold_s": HOLD_S, "radius_m": 2},
+    {"lat": -31.9803, "lon": 115.8203, "hold_s": HOLD_S, "radius_m": 2},
 ]
 
 
 def test_five_waypoint_mission_is_uploaded_read_back_and_followed(live_server, boat, rig):
     vessel, key = boat
-    rig.sim()  # default: the simulator asks for items with MISSION_REQUEST, as Rover does
+    # default: the simulator asks for items with MISSION_REQUEST, as Rover does
+    rig.sim("--time-scale", FAST)
     rig.client(live_server.url, key)
     observer = rig.observer()
     wait_until(lambda: Fix.objects.filter(vessel=vessel).exists(), 20, "a first fix")
@@ -173,7 +179,7 @@ def test_five_waypoint_mission_is_uploaded_read_back_and_followed(live_server, b
     assert all(a.same_route(b) for a, b in zip(download.items, expected, strict=True))
     wait_until(lambda: command_status(command) in ("done", "failed"), 40, "the mission to end")
     assert command.status == "done", command.result_detail
-    # The track on the server passes each waypoint (the boat holds 0.5 s at each one).
+    # The track on the server passes each waypoint (the boat holds at each one).
     for wp in FIVE:
         wait_until(
             lambda wp=wp: any(distance_m(f.lat, f.lon, wp["lat"], wp["lon"]) <= wp["radius_m"] + 1
@@ -184,10 +190,10 @@ def test_five_waypoint_mission_is_uploaded_read_back_and_followed(live_server, b
 
 def test_a_mission_ending_home_is_done_with_the_boat_back_home(live_server, boat, rig):
     vessel, key = boat
-    rig.sim()
+    rig.sim("--time-scale", FAST)
     rig.client(live_server.url, key)
     wait_until(lambda: Fix.objects.filter(vessel=vessel).exists(), 20, "a first fix")
-    far = {"lat": -31.9790, "lon": 115.8212, "hold_s": 1, "radius_m": None, "speed_mps": 20}
+    far = {"lat": -31.9790, "lon": 115.8212, "hold_s": HOLD_S, "radius_m": None, "speed_mps": 20}
     items = [FIVE[0], far]
     command = command_enqueue(vessel=vessel, kind="mission",
                               params={"items": items, "end": "return_home"},
