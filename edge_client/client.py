@@ -26,6 +26,7 @@ from collections.abc import Callable
 
 from edge_client import systemd
 from edge_client.config import Config
+from edge_client.contract.status import Status
 from edge_client.executor import Executor
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Item, Outbox, settle_fix_batch
@@ -42,7 +43,7 @@ MAX_OUTAGE_BACKOFF_S = 60.0
 ACK_DROP_STATUSES = frozenset({400, 404, 409})
 # An older server knows no `superseded` ack (400): the command is then acked `failed` with the
 # same detail, so that it does not stay open there.
-SUPERSEDED, FAILED = "superseded", "failed"
+SUPERSEDED, FAILED = Status.SUPERSEDED, Status.FAILED
 
 
 def post_ack(transport: Transport, outbox: Outbox, item: Item) -> None:

@@ -44,6 +44,7 @@ from typing import Any
 from edge_client.catalog import NAVIGATION_KINDS
 from edge_client.commands import Command, CommandError, parse_command, validate
 from edge_client.config import CommandsConfig
+from edge_client.contract.status import Status
 from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
 from edge_client.mission import (
     FIRST_ITEM,
@@ -59,8 +60,9 @@ from edge_client.vehicle import CLOCK_SANE_AFTER, VehicleState
 
 log = logging.getLogger(__name__)
 
-ACKNOWLEDGED, DONE, FAILED = "acknowledged", "done", "failed"
-SUPERSEDED = "superseded"  # replaced here by a newer command before it ended
+# The ack statuses the boat reports (the contract's names).
+ACKNOWLEDGED, DONE, FAILED = Status.ACKNOWLEDGED, Status.DONE, Status.FAILED
+SUPERSEDED = Status.SUPERSEDED  # replaced here by a newer command before it ended
 # Modes in which Rover drives by itself: entering one arms first (when allowed).
 MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
 # Rover modes whose Mode::requires_position() is true (Rover/mode.h): refused until the EKF

@@ -29,8 +29,8 @@ from typing import Any, NamedTuple
 
 from pymavlink import mavutil
 
-from edge_client.catalog import ROVER_MODES
 from edge_client.config import MavlinkConfig, ReadingSource
+from edge_client.contract.kinds import ROVER_MODES
 from edge_client.mission import MissionDownload, MissionItem, MissionUpload, Out
 from edge_client.vehicle import VehicleState
 

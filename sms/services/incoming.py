@@ -18,6 +18,7 @@ from django.utils.dateparse import parse_datetime
 from commands.errors import CommandError
 from commands.models import Command, Source
 from commands.services import command_enqueue
+from edge_client.contract.kinds import WAVE_GLIDER
 from sms import language
 from sms.language import Answer, Item, ItemKind
 from sms.level2.inner import InnerCommandTable
@@ -35,7 +36,6 @@ from sms.services._common import (
     _stamp,
 )
 from sms.services.numbers import e164_or_blank
-from vessels.kinds import WAVE_GLIDER
 from vessels.models import Vessel
 
 logger = logging.getLogger(__name__)

@@ -1,0 +1,8 @@
+"""The boat–shore contract: the rules the edge client and the server must agree on, kept once.
+
+Kinds and Rover's modes (:mod:`.kinds`), the MAV_CMD numbers a mission is built from
+(:mod:`.mavcmd`), command status names (:mod:`.status`) and the Earth's geometry (:mod:`.geo`).
+It lives inside ``edge_client`` so that a Pi which copies that folder alone still has it; the
+server imports it from here. Pure and stdlib-only: no Django, no pymavlink, no I/O
+(``tests/fleet/test_layers.py`` checks), so either side may import it anywhere.
+"""
