@@ -6,7 +6,10 @@ carries MAVLink's and ArduPilot's definitions, so a typo or a renumbering fails 
 
 from __future__ import annotations
 
+import datetime as dt
+import inspect
 import os
+import re
 
 import pytest
 
@@ -15,6 +18,7 @@ from pymavlink.dialects.v20 import ardupilotmega as apm  # noqa: E402
 
 from edge_client import catalog as edge_catalog  # noqa: E402
 from edge_client import mission as edge_mission  # noqa: E402
+from edge_client.contract import fix as fix_shape  # noqa: E402
 from edge_client.contract.kinds import ROVER_MODE_INITIALISING, ROVER_MODE_NAMES, ROVER_MODES  # noqa: E402
 from edge_client.contract.mavcmd import MavCmd  # noqa: E402
 from edge_client.contract.status import FINAL, OPEN, UNFINISHED, Status  # noqa: E402
@@ -46,3 +50,62 @@ def test_no_copy_of_the_tables_is_left_on_the_boat() -> None:
     assert not hasattr(edge_catalog, "ROVER_MODES")
     assert edge_mission.MAV_CMD_NAV_WAYPOINT is MavCmd.NAV_WAYPOINT
 
+
+def test_the_api_schema_of_a_fix_is_the_contracts_shape() -> None:
+    """FixIn (the schema) once let any battery_v through while the parser kept 0–1000."""
+    from telemetry.api.boat import FixIn  # a DRF serializer: imported here, with the server
+
+    fields = FixIn().fields
+    assert tuple(fields) == fix_shape.FIELDS
+    for name, (lo, hi) in fix_shape.RANGES.items():
+        assert (fields[name].min_value, fields[name].max_value) == (lo, hi), name
+        assert fields[name].required == (name in fix_shape.REQUIRED), name
+
+
+def test_the_parser_takes_its_fields_and_ranges_from_the_contract() -> None:
+    from telemetry.parsing import V1_FIELDS, FixErrors, parse_fix
+
+    assert V1_FIELDS == set(fix_shape.FIELDS)
+    now = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)
+    for name, (lo, hi) in fix_shape.RANGES.items():
+        if name in ("lat", "lon"):
+            continue
+        fix = {"time": now.isoformat(), "lat": 0, "lon": 0, name: hi}
+        assert getattr(parse_fix(fix, now=now), name) in (hi, hi % 360)
+        with pytest.raises(FixErrors):
+            parse_fix({**fix, name: hi + 1}, now=now)
+        with pytest.raises(FixErrors):
+            parse_fix({**fix, name: lo - 1}, now=now)
+
+
+def test_the_boat_writes_only_fields_of_the_contract() -> None:
+    from edge_client.vehicle import VehicleState
+
+    src = inspect.getsource(VehicleState)
+    written = set(re.findall(r'fix\["(\w+)"\]', src))
+    assert written and written <= set(fix_shape.FIELDS)
+
+
+def test_the_servers_batch_answer_settles_the_boats_outbox() -> None:
+    from edge_client.contract.batch import KEYS, BatchAnswer
+    from edge_client.outbox import settle_fix_batch
+    from telemetry.services import IngestResult
+
+    answer = BatchAnswer(accepted=2, duplicates=1)
+    answer.reject(3, {"lat": "must be between -90 and 90"})
+    assert tuple(answer.as_dict()) == KEYS
+    settled = settle_fix_batch([10, 11, 12, 13], answer.as_dict())
+    assert settled.remove == (10, 11, 12, 13) and settled.rejected == (
+        (13, answer.rejected[0]["errors"]),
+    )
+    assert IngestResult is BatchAnswer  # the telemetry upload answers the same shape
+
+
+def test_every_batch_uploads_schema_is_the_contracts_answer() -> None:
+    from drf_spectacular.generators import SchemaGenerator
+
+    from edge_client.contract.batch import KEYS
+
+    components = SchemaGenerator().get_schema(public=True)["components"]["schemas"]
+    for name in ("IngestResult", "CommandReportResult", "SmsUploadResult"):
+        assert tuple(components[name]["properties"]) == KEYS, name
