@@ -109,3 +109,12 @@ def test_every_batch_uploads_schema_is_the_contracts_answer() -> None:
     components = SchemaGenerator().get_schema(public=True)["components"]["schemas"]
     for name in ("IngestResult", "CommandReportResult", "SmsUploadResult"):
         assert tuple(components[name]["properties"]) == KEYS, name
+
+
+def test_backoff_doubles_up_to_its_cap() -> None:
+    from edge_client.contract.backoff import after_failures, doubled
+
+    assert [doubled(d, cap=30.0) for d in (1.0, 8.0, 16.0, 30.0)] == [2.0, 16.0, 30.0, 30.0]
+    assert doubled(1e6) == 2e6  # uncapped by default
+    assert [after_failures(5.0, n, cap=120.0) for n in (0, 1, 3, 5)] == [5.0, 10.0, 40.0, 120.0]
+    assert after_failures(0.5, 10**6, cap=1e9) == 0.5 * 2**6  # at most six doublings
