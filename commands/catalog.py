@@ -13,8 +13,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from commands.errors import CatalogError
-from vessels.geo import distance_m
-from vessels.kinds import MAVLINK, ROVER_MODES, WAVE_GLIDER
+from edge_client.contract.geo import distance_m
+from edge_client.contract.kinds import MAVLINK, ROVER_MODES, WAVE_GLIDER
 from vessels.missions import (
     ENDS,
     HOLD_MAX_S,

@@ -1,26 +1,24 @@
-"""Command lifecycle (DESIGN §4): statuses and the legal transitions between them. Pure."""
+"""Command lifecycle (DESIGN §4): the legal transitions between statuses. Pure.
+
+The status names, and which are open or final, are the boat–shore contract's
+(``edge_client/contract/status.py``); the migrations name ``commands.lifecycle.Status``.
+"""
 
 from __future__ import annotations
 
-from enum import StrEnum
-
 from commands.errors import TransitionError
+from edge_client.contract.status import ACK_STATUSES, FINAL, OPEN, Status
 
-
-class Status(StrEnum):
-    QUEUED = "queued"
-    SENT = "sent"
-    ACKNOWLEDGED = "acknowledged"
-    DONE = "done"
-    FAILED = "failed"
-    CANCELLED = "cancelled"
-    SUPERSEDED = "superseded"
-    EXPIRED = "expired"
-
-
-# Statuses the vessel still has to see (the boat poll offers these again until acked).
-OPEN = (Status.QUEUED, Status.SENT)
-FINAL = frozenset({Status.DONE, Status.FAILED, Status.CANCELLED, Status.SUPERSEDED, Status.EXPIRED})
+__all__ = [
+    "ACK_STATUSES",
+    "FINAL",
+    "OPEN",
+    "Status",
+    "TRANSITIONS",
+    "ack_is_stale",
+    "can_transition",
+    "check_transition",
+]
 
 TRANSITIONS: dict[Status, frozenset[Status]] = {
     Status.QUEUED: frozenset({Status.SENT, Status.CANCELLED, Status.SUPERSEDED, Status.EXPIRED}),
@@ -37,8 +35,6 @@ TRANSITIONS: dict[Status, frozenset[Status]] = {
     Status.EXPIRED: frozenset(),
 }
 
-# Statuses a vessel may report in an ack, in the order they happen.
-ACK_STATUSES = (Status.ACKNOWLEDGED, Status.DONE, Status.FAILED, Status.SUPERSEDED)
 _ACK_RANK = {
     Status.SENT: 0,
     Status.ACKNOWLEDGED: 1,

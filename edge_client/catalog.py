@@ -36,22 +36,4 @@ RANGES: dict[str, tuple[float | None, float | None]] = {
     "mission_id": (1, None),
 }
 MISSION_MAX_ITEMS = 500
-
-# ArduPilot Rover modes an operator may ask for (ArduPilot Rover/mode.h, enum Mode::Number).
-ROVER_MODES: dict[str, int] = {
-    "MANUAL": 0,
-    "ACRO": 1,
-    "STEERING": 3,
-    "HOLD": 4,
-    "LOITER": 5,
-    "FOLLOW": 6,
-    "SIMPLE": 7,
-    "DOCK": 8,
-    "CIRCLE": 9,
-    "AUTO": 10,
-    "RTL": 11,
-    "SMART_RTL": 12,
-    "GUIDED": 15,
-}
-# Reported in HEARTBEAT while the autopilot boots; never asked for, so not in ROVER_MODES.
-INITIALISING = 16
+# Rover's mode names are not copied here: both sides take them from edge_client.contract.kinds.

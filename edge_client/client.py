@@ -26,6 +26,8 @@ from collections.abc import Callable
 
 from edge_client import systemd
 from edge_client.config import Config
+from edge_client.contract.backoff import after_failures
+from edge_client.contract.status import Status
 from edge_client.executor import Executor
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Item, Outbox, settle_fix_batch
@@ -42,7 +44,7 @@ MAX_OUTAGE_BACKOFF_S = 60.0
 ACK_DROP_STATUSES = frozenset({400, 404, 409})
 # An older server knows no `superseded` ack (400): the command is then acked `failed` with the
 # same detail, so that it does not stay open there.
-SUPERSEDED, FAILED = "superseded", "failed"
+SUPERSEDED, FAILED = Status.SUPERSEDED, Status.FAILED
 
 
 def post_ack(transport: Transport, outbox: Outbox, item: Item) -> None:
@@ -201,7 +203,7 @@ class EdgeClient:
         except TransportError as exc:
             self._failures += 1
             self._report(False, exc)
-            return min(MAX_OUTAGE_BACKOFF_S, period * 2 ** min(self._failures, 6))
+            return after_failures(period, self._failures, cap=MAX_OUTAGE_BACKOFF_S)
         self._failures = 0
         self._report(True)
         return max(0.05, min(period, self._next_poll - time.monotonic()))

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from edge_client.catalog import KIND_PARAMS, MISSION_ENDS, MISSION_MAX_ITEMS, RANGES, ROVER_MODES
+from edge_client.catalog import KIND_PARAMS, MISSION_ENDS, MISSION_MAX_ITEMS, RANGES
+from edge_client.contract.kinds import ROVER_MODES
 
 
 class CommandError(ValueError):

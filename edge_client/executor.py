@@ -44,6 +44,8 @@ from typing import Any
 from edge_client.catalog import NAVIGATION_KINDS
 from edge_client.commands import Command, CommandError, parse_command, validate
 from edge_client.config import CommandsConfig
+from edge_client.contract.backoff import doubled
+from edge_client.contract.status import Status
 from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
 from edge_client.mission import (
     FIRST_ITEM,
@@ -59,8 +61,9 @@ from edge_client.vehicle import CLOCK_SANE_AFTER, VehicleState
 
 log = logging.getLogger(__name__)
 
-ACKNOWLEDGED, DONE, FAILED = "acknowledged", "done", "failed"
-SUPERSEDED = "superseded"  # replaced here by a newer command before it ended
+# The ack statuses the boat reports (the contract's names).
+ACKNOWLEDGED, DONE, FAILED = Status.ACKNOWLEDGED, Status.DONE, Status.FAILED
+SUPERSEDED = Status.SUPERSEDED  # replaced here by a newer command before it ended
 # Modes in which Rover drives by itself: entering one arms first (when allowed).
 MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
 # Rover modes whose Mode::requires_position() is true (Rover/mode.h): refused until the EKF
@@ -320,7 +323,7 @@ class Executor:
             # "EKF failsafe cleared" ends the pause at once: no need to wait out the backoff.
             cleared = _failsafe_cleared(state) if state.ekf_failsafe else (lambda: False)
             self._pause(min(backoff, max(0.0, deadline - now)), cleared)
-            backoff = min(backoff * 2, MODE_BACKOFF_MAX_S)
+            backoff = doubled(backoff, cap=MODE_BACKOFF_MAX_S)
 
     def _pause(self, seconds: float, until: Callable[[], bool]) -> None:
         """Sleep ``seconds`` in short steps, ending early once ``until()`` or on a stop."""

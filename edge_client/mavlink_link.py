@@ -29,8 +29,9 @@ from typing import Any, NamedTuple
 
 from pymavlink import mavutil
 
-from edge_client.catalog import ROVER_MODES
 from edge_client.config import MavlinkConfig, ReadingSource
+from edge_client.contract.backoff import doubled
+from edge_client.contract.kinds import ROVER_MODES
 from edge_client.mission import MissionDownload, MissionItem, MissionUpload, Out
 from edge_client.vehicle import VehicleState
 
@@ -180,7 +181,7 @@ class MavlinkLink:
                         "cannot open %s: %s (retry in %.0f s)", self.config.connection, exc, backoff
                     )
                     self._stop.wait(backoff)
-                    backoff = min(backoff * 2, 30.0)
+                    backoff = doubled(backoff, cap=30.0)
                     continue
             now = time.monotonic()
             try:

@@ -20,12 +20,15 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-# common.xml MAV_CMD / MAV_FRAME / SPEED_TYPE / MAV_MISSION_RESULT values.
-MAV_CMD_NAV_WAYPOINT = 16
-MAV_CMD_NAV_LOITER_TIME = 19
-MAV_CMD_NAV_RETURN_TO_LAUNCH = 20
-MAV_CMD_DO_JUMP = 177
-MAV_CMD_DO_CHANGE_SPEED = 178
+from edge_client.contract.mavcmd import MavCmd
+
+# The MAV_CMD numbers are the contract's (the server reads mission files with the same ones);
+# common.xml MAV_FRAME / SPEED_TYPE / MAV_MISSION_RESULT values follow.
+MAV_CMD_NAV_WAYPOINT = MavCmd.NAV_WAYPOINT
+MAV_CMD_NAV_LOITER_TIME = MavCmd.NAV_LOITER_TIME
+MAV_CMD_NAV_RETURN_TO_LAUNCH = MavCmd.NAV_RETURN_TO_LAUNCH
+MAV_CMD_DO_JUMP = MavCmd.DO_JUMP
+MAV_CMD_DO_CHANGE_SPEED = MavCmd.DO_CHANGE_SPEED
 MAV_FRAME_GLOBAL = 0
 MAV_FRAME_GLOBAL_RELATIVE_ALT = 3
 SPEED_TYPE_GROUNDSPEED = 1

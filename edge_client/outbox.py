@@ -91,9 +91,10 @@ class Settlement:
 def settle_fix_batch(ids: Sequence[int], answer: Any) -> Settlement:
     """Decide which fixes of a batch leave the outbox after a 200 from ``POST boat/telemetry/``.
 
-    The answer is ``{"accepted": n, "duplicates": n, "rejected": [{"index": i, "errors": ...}]}``
-    (DESIGN §5). Accepted and duplicate fixes are on the server; a rejected one never will be,
-    so it is dropped too (after logging). If the answer does not account for every fix in the
+    The answer is the contract's batch answer (``edge_client.contract.batch``, DESIGN §5):
+    ``{"accepted": n, "duplicates": n, "rejected": [{"index": i, "errors": ...}]}``. Accepted
+    and duplicate fixes are on the server; a rejected one never will be, so it is dropped too
+    (after logging). If the answer does not account for every fix in the
     batch, nothing leaves: re-sending is harmless (the server dedupes on vessel + time), losing
     a fix is not.
     """

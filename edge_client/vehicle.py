@@ -25,15 +25,15 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
 
-from edge_client.catalog import INITIALISING, ROVER_MODES
 from edge_client.config import ReadingSource
-from edge_client.geo import distance_m
+from edge_client.contract.geo import distance_m
+from edge_client.contract.kinds import ROVER_MODE_NAMES
 from edge_client.mission import WaypointNumbers
 
 log = logging.getLogger(__name__)
 
 # HEARTBEAT custom_mode → name: the modes of the catalog plus the one seen while booting.
-MODE_NAMES = {number: name for name, number in ROVER_MODES.items()} | {INITIALISING: "INITIALISING"}
+MODE_NAMES = ROVER_MODE_NAMES
 
 MAV_MODE_FLAG_SAFETY_ARMED = 128
 MAV_AUTOPILOT_INVALID = 8  # HEARTBEATs from GCSs and companions carry this; ignore them

@@ -12,7 +12,7 @@ import random
 from dataclasses import dataclass, field
 from typing import Any
 
-from vessels.geo import bearing_deg, distance_m, offset
+from edge_client.contract.geo import bearing_deg, distance_m, offset
 
 
 def patrol_route(

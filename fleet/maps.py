@@ -14,6 +14,7 @@ from django.http import HttpRequest
 from django.middleware.csrf import get_token
 from django.urls import reverse
 
+from edge_client.contract.status import OPEN, UNFINISHED, Status
 from fleet.map_actions import map_actions
 from telemetry.models import SensorChannel
 from vessels.display import BATTERY, state_channels_config
@@ -73,6 +74,12 @@ def fleet_map_config(request: HttpRequest) -> dict[str, Any]:
         "canViewCommands": user.has_perm("commands.view_command"),
         "csrfToken": get_token(request),
         "channels": page_channels(),
+        # Status names from the contract, not a copy in the script: an unfinished command is
+        # drawn as open (its move_to target on the map); a cancel is offered while it is OPEN.
+        "statuses": {
+            "unfinished": [s.value for s in Status if s in UNFINISHED],
+            "cancellable": [s.value for s in OPEN],
+        },
         # Without the add permission, no buttons: the API would answer 403 anyway.
         "actions": {kind: map_actions(kind) if can_command else [] for kind in VesselKind.values},
     }

@@ -18,15 +18,16 @@ import datetime as dt
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from edge_client.contract.status import Status
 from sms.language import Answer, compose_reply
 
 QUEUED = "QUEUED"
 OK = "OK"
 FAILED = "FAILED"
-# Statuses after which a command never changes (commands.lifecycle.FINAL, spelled here to stay
-# pure); the others (queued, sent, acknowledged) are still on their way.
-ENDED = {"done": OK, "failed": FAILED, "cancelled": "CANCELLED", "superseded": "SUPERSEDED",
-         "expired": "EXPIRED"}  # fmt: skip
+# What a reply says for each final status (the contract's FINAL); the others (queued, sent,
+# acknowledged) are still on their way.
+ENDED = {Status.DONE: OK, Status.FAILED: FAILED, Status.CANCELLED: "CANCELLED",
+         Status.SUPERSEDED: "SUPERSEDED", Status.EXPIRED: "EXPIRED"}  # fmt: skip
 
 
 def command_outcome(status: str, detail: str = "", reason: str | None = None) -> str | None:

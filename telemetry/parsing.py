@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 # The plausibility rule is shared with the other uploads (reported commands, the SMS log).
+from edge_client.contract import fix as fix_shape
 from vessels.clock import PLAUSIBLE_FROM as PLAUSIBLE_FROM  # re-exported
 from vessels.clock import check_plausible
 from vessels.text import unstorable
@@ -21,11 +22,11 @@ UTC = dt.UTC
 # The old Shoreside server counted time in units of 10 µs since 2015-01-01 (DESIGN §5).
 LEGACY_EPOCH = dt.datetime(2015, 1, 1, tzinfo=UTC)
 LEGACY_TICKS_PER_S = 100_000
-MAX_READINGS = 64
-MAX_READING_NAME = 50
+# v1's fields, ranges and readings limits are the boat–shore contract's.
+MAX_READINGS, MAX_READING_NAME = fix_shape.MAX_READINGS, fix_shape.MAX_READING_NAME
 
 LEGACY_FIELDS = frozenset({"timestamp", "latitude", "longitude"})
-V1_FIELDS = frozenset({"time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings"})
+V1_FIELDS = frozenset(fix_shape.FIELDS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -176,9 +177,9 @@ def parse_fix(record: Any, *, now: dt.datetime, max_future_s: float = 300) -> Fi
         except ValueError as exc:
             errors["time"] = str(exc)
     lat, lon = _position(record.get("lat"), record.get("lon"), errors)
-    heading = _optional(record, "heading_deg", 0, 360, errors)
-    speed = _optional(record, "speed_mps", 0, 1000, errors)
-    battery = _optional(record, "battery_v", 0, 1000, errors)
+    heading = _optional(record, "heading_deg", *fix_shape.RANGES["heading_deg"], errors)
+    speed = _optional(record, "speed_mps", *fix_shape.RANGES["speed_mps"], errors)
+    battery = _optional(record, "battery_v", *fix_shape.RANGES["battery_v"], errors)
     readings = _readings(record.get("readings"), errors)
     if errors:
         raise FixErrors(errors)

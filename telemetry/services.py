@@ -7,7 +7,6 @@ import functools
 import json
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
 from django.conf import settings
@@ -15,6 +14,7 @@ from django.db import DatabaseError, connection, transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
+from edge_client.contract.batch import BatchAnswer
 from telemetry import selectors
 from telemetry.errors import BatchTooLarge
 from telemetry.models import Fix, SensorChannel, TrackBucket, TrackDirty
@@ -30,14 +30,7 @@ logger = logging.getLogger(__name__)
 INSERT_CHUNK = 1000
 
 
-@dataclass
-class IngestResult:
-    accepted: int = 0
-    duplicates: int = 0
-    rejected: list[dict[str, Any]] = field(default_factory=list)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"accepted": self.accepted, "duplicates": self.duplicates, "rejected": self.rejected}
+IngestResult = BatchAnswer  # the telemetry upload's answer is the contract's batch answer
 
 
 def fix_ingest(
@@ -71,7 +64,7 @@ def fix_ingest(
                 else parse(record, now=now, max_future_s=settings.FIX_MAX_FUTURE_S)
             )
         except FixErrors as exc:
-            result.rejected.append({"index": index, "errors": exc.errors})
+            result.reject(index, exc.errors)
             continue
         if fix.recorded_at in fixes:
             result.duplicates += 1

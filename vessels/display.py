@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 from typing import Any
 
-from vessels.kinds import ROVER_MODE_INITIALISING, ROVER_MODES
+from edge_client.contract.kinds import ROVER_MODE_NAMES
 
 KNOTS_PER_MPS = 3600 / 1852  # one knot is one nautical mile (1852 m) an hour
 POSITION_DECIMALS = 5  # about 1 m of latitude
@@ -30,10 +30,7 @@ BATTERY = {"label": "Battery", "unit": "V"}
 STATE_CHANNELS: dict[str, dict[str, Any]] = {
     "mode_number": {
         "label": "Mode",
-        "states": {
-            **{number: name for name, number in ROVER_MODES.items()},
-            ROVER_MODE_INITIALISING: "INITIALISING",
-        },
+        "states": ROVER_MODE_NAMES,
         "alone": False,
     },
     "armed": {"label": "Armed", "states": {0: "disarmed", 1: "armed"}, "alone": True},

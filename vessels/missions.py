@@ -1,5 +1,5 @@
 """Mission rules and figures: the checks a mission passes before it is sent, and its legs,
-distances and times at a vessel's cruise speed. Pure (stdlib and vessels.geo only).
+distances and times at a vessel's cruise speed. Pure (stdlib and the contract's geo only).
 
 Items are mappings with ``lat``, ``lon`` and optional ``hold_s``, ``radius_m``, ``speed_mps``
 (the shape of the ``mission`` command's items and of ``Mission.as_params()``).
@@ -18,7 +18,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from vessels.geo import bearing_deg, distance_m
+from edge_client.contract.geo import bearing_deg, distance_m
 
 # Per-item ranges. The command catalog (commands/catalog.py: HOLD_S, RADIUS_M, SPEED_MPS,
 # MISSION_ENDS) takes them from here: vessels sits below commands, so this is their one home.

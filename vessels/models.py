@@ -8,7 +8,7 @@ from django.core.validators import MaxValueValidator, MinValueValidator
 from django.db import models
 from django.db.models import Q
 
-from vessels.kinds import MAVLINK, WAVE_GLIDER
+from edge_client.contract.kinds import MAVLINK, WAVE_GLIDER
 from vessels.missions import (
     DEFAULT_CRUISE_SPEED_MPS,
     HOLD_MAX_S,

@@ -10,7 +10,6 @@ from __future__ import annotations
 from typing import Any
 
 from django.http import HttpResponseNotModified
-from django.utils.http import parse_etags
 from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import OpenApiParameter, extend_schema, inline_serializer
 from rest_framework import serializers, status
@@ -21,7 +20,8 @@ from rest_framework.response import Response
 from commands.lifecycle import Status
 from commands.models import Command, Source
 from commands.services import command_ack, command_claim_open, command_reports_record
-from vessels.api.boat import AwareDateTimeField, BoatView
+from vessels.api.boat import AwareDateTimeField, BoatView, batch_answer_schema
+from vessels.api.conditional import etag_matches
 from vessels.api.fields import StrictCharField
 from vessels.batch import Unreadable
 from vessels.models import Vessel
@@ -31,16 +31,6 @@ from vessels.text import json_unstorable, unstorable
 def commands_etag(vessel: Vessel) -> str:
     """Changes whenever the vessel's open command list does (Vessel.commands_version)."""
     return f'"c{vessel.pk}.{vessel.commands_version}"'
-
-
-def etag_matches(if_none_match: str | None, etag: str) -> bool:
-    """RFC 9110 §13.1.2: If-None-Match may list several tags and compares weakly, so a
-    proxy that weakened our tag (nginx does when it gzips) still earns the boat its 304."""
-    if not if_none_match:
-        return False
-    if if_none_match == etag:  # the common case, without parsing
-        return True
-    return any(tag.removeprefix("W/") == etag for tag in parse_etags(if_none_match))
 
 
 def command_wire(command: Command) -> dict[str, Any]:
@@ -180,16 +170,7 @@ def reports_from_body(data: Any) -> list[Any]:
 class CommandReportView(BoatView):
     @extend_schema(
         request=inline_serializer("CommandReport", {"commands": ReportedCommandIn(many=True)}),
-        responses={
-            200: inline_serializer(
-                "CommandReportResult",
-                {
-                    "accepted": serializers.IntegerField(),
-                    "duplicates": serializers.IntegerField(),
-                    "rejected": serializers.ListField(child=serializers.DictField()),
-                },
-            )
-        },
+        responses={200: batch_answer_schema("CommandReportResult")},
         tags=["boat"],
     )
     def post(self, request: Request) -> Response:

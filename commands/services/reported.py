@@ -17,7 +17,8 @@ from commands.errors import CommandError, TransitionError
 from commands.lifecycle import FINAL, Status, check_transition
 from commands.models import Command, CommandEvent, Source
 from commands.services._transition import _STAMP, _storable_text, _transition
-from vessels.batch import BatchAnswer, Unreadable
+from edge_client.contract.batch import BatchAnswer
+from vessels.batch import Unreadable
 from vessels.clock import check_plausible
 from vessels.models import Vessel
 

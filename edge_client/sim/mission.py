@@ -20,7 +20,10 @@ mavlink = mavutil.mavlink
 UPLOAD_RETRY_S = 0.5
 UPLOAD_GIVE_UP_S = 8.0
 GLOBAL_FRAMES = {0, 3, 5, 6, 10, 11}  # MAV_FRAME_GLOBAL*, incl. the deprecated _INT variants
-NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL, DO_JUMP, DO_CHANGE_SPEED = 16, 19, 20, 177, 178
+# pymavlink's own numbers (the simulator has it; the pure mission code uses the contract's).
+NAV_WAYPOINT, NAV_LOITER_TIME = mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME
+NAV_RTL, DO_JUMP = mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_CMD_DO_JUMP
+DO_CHANGE_SPEED = mavlink.MAV_CMD_DO_CHANGE_SPEED
 NAV_COMMANDS = {NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL}  # the ones this Rover drives to
 LOCATION_COMMANDS = {NAV_WAYPOINT, NAV_LOITER_TIME}  # AP_Mission keeps their x, y, z
 MAX_MISSION_ITEMS = 724  # AP_Mission on a 16 KiB storage board, as commands/catalog.py says

@@ -66,7 +66,8 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil  # noqa: E402
 
-from edge_client.geo import bearing_deg, distance_m, offset  # noqa: E402 (stdlib-only module)
+from edge_client.contract.geo import bearing_deg, distance_m, offset  # noqa: E402 (pure)
+from edge_client.contract.kinds import ROVER_MODE_NAMES  # noqa: E402 (pure)
 from edge_client.sim.clock import ScaledClock, SimClock  # noqa: E402
 from edge_client.sim.mission import (  # noqa: E402 (after MAVLINK20 is chosen)
     FIRST_ITEM,
@@ -80,12 +81,8 @@ from edge_client.sim.mission import (  # noqa: E402 (after MAVLINK20 is chosen)
 
 mavlink = mavutil.mavlink
 
-MODES = {
-    "MANUAL": 0, "ACRO": 1, "STEERING": 3, "HOLD": 4, "LOITER": 5, "FOLLOW": 6, "SIMPLE": 7,
-    "DOCK": 8, "CIRCLE": 9, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15,
-    "INITIALISING": 16,
-}  # fmt: skip
-MODE_NAMES = {v: k for k, v in MODES.items()}
+MODE_NAMES = ROVER_MODE_NAMES  # every mode Rover reports, by number
+MODES = {name: number for number, name in MODE_NAMES.items()}
 DEFAULT_WP_RADIUS_M = 2.0  # ArduPilot Rover WP_RADIUS default
 # MISSION_CURRENT.mission_state (common.xml MISSION_STATE)
 NO_MISSION, NOT_STARTED, ACTIVE, COMPLETE = 1, 2, 3, 5

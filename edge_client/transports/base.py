@@ -16,6 +16,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol, TypeVar
 
+from edge_client.contract.backoff import doubled
+
 log = logging.getLogger(__name__)
 
 T = TypeVar("T")
@@ -96,5 +98,5 @@ def with_retries(
                 raise
             log.info("transport: %s; retrying in %.1f s", exc, delay)
             sleep(delay)
-            delay *= 2
+            delay = doubled(delay)
     raise AssertionError("unreachable")  # pragma: no cover

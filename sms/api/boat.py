@@ -25,7 +25,6 @@ from rest_framework.exceptions import ParseError
 from rest_framework.request import Request
 from rest_framework.response import Response
 
-from commands.api.boat import etag_matches
 from sms.models import (
     E164_MAX,
     ORIGIN_ID_MAX,
@@ -37,7 +36,8 @@ from sms.models import (
     SendStatus,
 )
 from sms.services import DETAIL_MAX, TEXT_STORE_MAX, sms_log_upload
-from vessels.api.boat import AwareDateTimeField, BoatView
+from vessels.api.boat import AwareDateTimeField, BoatView, batch_answer_schema
+from vessels.api.conditional import etag_matches
 from vessels.batch import Unreadable
 from vessels.models import Vessel
 from vessels.text import json_size, json_unstorable
@@ -165,14 +165,7 @@ def entries_from_body(data: Any) -> list[Any]:
     return data
 
 
-_UploadResult = inline_serializer(
-    "SmsUploadResult",
-    {
-        "accepted": serializers.IntegerField(),
-        "duplicates": serializers.IntegerField(),
-        "rejected": serializers.ListField(child=serializers.DictField()),
-    },
-)
+_UploadResult = batch_answer_schema("SmsUploadResult")
 
 
 class SmsLogView(BoatView):

@@ -33,6 +33,7 @@ from typing import Any
 
 import serial
 
+from edge_client.contract.backoff import doubled
 from sms import gsm7
 
 from .at import (
@@ -305,7 +306,7 @@ class Modem:
         except ModemError as exc:
             if not exc.permanent:
                 self._retry_at = self.clock() + self._backoff
-                self._backoff = min(self._backoff * 2, self.config.reconnect_max_s)
+                self._backoff = doubled(self._backoff, cap=self.config.reconnect_max_s)
             raise
         self._backoff = self.config.reconnect_delay_s
         self._retry_at = 0.0

@@ -17,6 +17,7 @@ from django.db.models import Exists, OuterRef
 from commands.errors import CommandError
 from commands.models import Command, Source
 from commands.services import command_enqueue
+from edge_client.contract.kinds import WAVE_GLIDER
 from sms import language
 from sms.language import Answer, Item, ItemKind
 from sms.level2.inner import InnerCommandTable
@@ -29,7 +30,6 @@ from sms.services._common import (
     _save_checked,
 )
 from sms.services.numbers import e164_or_blank
-from vessels.kinds import WAVE_GLIDER
 from vessels.models import Vessel
 
 logger = logging.getLogger(__name__)

@@ -16,13 +16,12 @@ from commands import catalog
 from commands.errors import CatalogError
 from commands.lifecycle import Status
 from commands.models import Command, CommandEvent
+from edge_client.contract.status import UNFINISHED
 from sms import language, replies, selectors
 from sms.language import Answer, Item, ItemKind
 from sms.models import AuthorisedNumber, Direction, SendStatus, SmsMessage
 from sms.services._common import _save_checked
 from vessels.models import Vessel
-
-_OPEN_STATUSES = frozenset({"queued", "sent", "acknowledged"})
 
 
 def reply_store(
@@ -40,7 +39,7 @@ def reply_store(
     commands = [command for _, command in queued]
     by_answer = {index: command.pk for index, command in queued}
     status = SendStatus.PENDING if send_replies else SendStatus.NOT_SENT
-    hold = send_replies and reply_window_s > 0 and any(c.status in _OPEN_STATUSES for c in commands)
+    hold = send_replies and reply_window_s > 0 and any(c.status in UNFINISHED for c in commands)
     received_at = message.received_at
     reply = SmsMessage(
         direction=Direction.OUT,
@@ -150,7 +149,7 @@ def _answer_query(vessel: Vessel, item: Item) -> Answer:
     if known is None:
         outcome = "unknown"
     else:
-        outcome = _values(known) + ("" if known.status == "done" else f" ({known.status})")
+        outcome = _values(known) + ("" if known.status == Status.DONE else f" ({known.status})")
     queued = state.queued
     if queued is not None and (known is None or queued.created_at >= known.created_at):
         outcome += f", {_values(queued)} QUEUED"

@@ -16,6 +16,7 @@ from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
 from commands.models import Command
+from edge_client.contract.batch import BatchAnswer
 from sms.errors import InvalidNumber
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SmsMessage
 from sms.services._common import _UNSTORABLE, DETAIL_MAX, TEXT_STORE_MAX, _save_checked
@@ -25,7 +26,7 @@ from sms.services.numbers import (
     number_normalise,
     validation_message,
 )
-from vessels.batch import BatchAnswer, Unreadable
+from vessels.batch import Unreadable
 from vessels.clock import check_plausible
 from vessels.models import Vessel
 

@@ -15,9 +15,10 @@ from rest_framework.exceptions import ParseError
 from rest_framework.request import Request
 from rest_framework.response import Response
 
+from edge_client.contract import fix as fix_shape
 from telemetry.api.parsers import LegacyTelemetryJSONParser, TelemetryJSONParser
 from telemetry.services import fix_ingest
-from vessels.api.boat import BoatView, LegacyBoatView, telem_ack
+from vessels.api.boat import BoatView, LegacyBoatView, batch_answer_schema, telem_ack
 
 logger = logging.getLogger(__name__)
 
@@ -36,31 +37,32 @@ class FixTime(serializers.Field):
     """ISO 8601 with a UTC offset, or Unix seconds."""
 
 
+def _number(name: str) -> serializers.FloatField:
+    """A fix's number field with the contract's range (edge_client/contract/fix.py)."""
+    lo, hi = fix_shape.RANGES[name]
+    return serializers.FloatField(required=name in fix_shape.REQUIRED, min_value=lo, max_value=hi)
+
+
 class FixIn(serializers.Serializer):
     """The wire shape of one fix, for the schema only: telemetry.parsing validates, so that
     one bad fix is reported by index instead of failing the batch."""
 
     time = FixTime(help_text="ISO 8601 with a UTC offset, or Unix seconds")
-    lat = serializers.FloatField(min_value=-90, max_value=90)
-    lon = serializers.FloatField(min_value=-180, max_value=180)
-    heading_deg = serializers.FloatField(required=False, min_value=0, max_value=360)
-    speed_mps = serializers.FloatField(required=False, min_value=0, max_value=1000)
-    battery_v = serializers.FloatField(required=False)
+    lat = _number("lat")
+    lon = _number("lon")
+    heading_deg = _number("heading_deg")
+    speed_mps = _number("speed_mps")
+    battery_v = _number("battery_v")
     readings = serializers.DictField(
-        child=serializers.FloatField(), required=False, help_text="name: number, up to 64"
+        child=serializers.FloatField(),
+        required=False,
+        help_text=f"name: number, up to {fix_shape.MAX_READINGS}",
     )
 
 
 _Batch = inline_serializer("TelemetryBatch", {"fixes": FixIn(many=True)})
 
-_IngestResult = inline_serializer(
-    "IngestResult",
-    {
-        "accepted": serializers.IntegerField(),
-        "duplicates": serializers.IntegerField(),
-        "rejected": serializers.ListField(child=serializers.DictField()),
-    },
-)
+_IngestResult = batch_answer_schema("IngestResult")
 
 
 class TelemetryView(BoatView):

@@ -15,13 +15,13 @@ from selenium.webdriver.common.by import By
 
 from commands.models import Command
 from commands.services import command_enqueue
+from edge_client.contract.geo import bearing_deg, distance_m
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from tests.browser.support import js, log_in, shot, wait_for
 from tests.conftest import make_user
 from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import start, stop, wait_until
-from vessels.geo import bearing_deg, distance_m
 from vessels.models import Vessel
 from vessels.services import vessel_key_issue
 

@@ -12,10 +12,10 @@ from selenium.webdriver.support import expected_conditions as EC
 from selenium.webdriver.support.ui import Select
 
 from commands.models import Command
+from edge_client.contract import geo
 from telemetry.services import fix_ingest
 from tests.browser.support import js, log_in, shot, wait_for
 from tests.conftest import make_user
-from vessels import geo
 from vessels.display import fmt_position
 from vessels.missions import legs
 from vessels.models import Mission, Vessel

@@ -13,10 +13,10 @@ from commands import catalog
 from commands.errors import CatalogError
 from commands.models import Command
 from commands.services import command_enqueue, vessel_context
+from edge_client.contract.geo import distance_m
 from telemetry.services import fix_ingest
 from tests.conftest import make_user
 from tests.support import commands_url
-from vessels.geo import distance_m
 from vessels.models import Vessel
 
 pytestmark = pytest.mark.django_db

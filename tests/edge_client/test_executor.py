@@ -9,8 +9,8 @@ import uuid
 import pytest
 
 from edge_client.config import CommandsConfig, MavlinkConfig
+from edge_client.contract.geo import distance_m
 from edge_client.executor import Command, CommandError, Executor, validate
-from edge_client.geo import distance_m
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Outbox
 from tests.edge_client.conftest import free_port

@@ -17,7 +17,7 @@ import pytest
 from commands.models import Command
 from commands.services import command_enqueue
 from edge_client.config import MavlinkConfig
-from edge_client.geo import distance_m
+from edge_client.contract.geo import distance_m
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.mission import build_mission
 from telemetry.models import Fix

@@ -14,7 +14,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
-from edge_client.geo import distance_m, offset  # noqa: E402
+from edge_client.contract.geo import distance_m, offset  # noqa: E402
 from edge_client.mission import MAV_CMD_NAV_LOITER_TIME, MissionItem, build_mission  # noqa: E402
 from edge_client.sim.rover import Item, RoverSim  # noqa: E402
 from tests.edge_client.conftest import free_port  # noqa: E402

@@ -15,7 +15,7 @@ from django.core.management import CommandError, call_command
 
 from commands.models import Command
 from commands.services import command_enqueue
-from edge_client.geo import distance_m
+from edge_client.contract.geo import distance_m
 from telemetry.models import Fix
 from tests.conftest import give_position
 from tests.edge_client.conftest import free_port

@@ -112,12 +112,10 @@ def test_edge_client_loads_no_server_package_at_run_time() -> None:
 
 # Pure logic (DESIGN §2): importable and testable with no database, no port, no network.
 PURE = [
-    "vessels/kinds.py",
     "commands/catalog.py",
     "commands/lifecycle.py",
     "commands/errors.py",
     "telemetry/parsing.py",
-    "vessels/geo.py",
     "vessels/display.py",
     "vessels/clock.py",
     "vessels/errors.py",
@@ -154,6 +152,7 @@ PURE = [
     "edge_client/commands.py",
     "edge_client/geo.py",
     "edge_client/mission.py",
+    *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "edge_client/contract").glob("*.py")),
 ]
 IO = {"django", "rest_framework", "serial", "socket", "requests", "pymavlink", "sqlite3"}
 
@@ -162,6 +161,66 @@ IO = {"django", "rest_framework", "serial", "socket", "requests", "pymavlink", "
 def test_pure_modules_import_no_io(module: str) -> None:
     packages = {package for _, package in imported_packages(ROOT / module)}
     assert packages & IO == set()
+
+
+# -- the boat–shore contract -------------------------------------------------------------------
+# edge_client/contract/ is what the server and the boat share: stdlib and itself only, so the
+# server may import it anywhere and a Pi that copies edge_client alone still has it.
+CONTRACT = "edge_client.contract"
+
+
+def dotted_imports(path: Path) -> list[tuple[int, str]]:
+    """(line, full dotted name) of every absolute import in a module (``from a.b import c``
+    gives ``a.b.c``, which is a module or a name in ``a.b``)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found += [(node.lineno, f"{node.module}.{alias.name}") for alias in node.names]
+    return found
+
+
+def test_the_contract_imports_only_the_standard_library_and_itself() -> None:
+    modules = sorted((ROOT / "edge_client/contract").glob("*.py"))
+    assert len(modules) >= 8  # __init__, kinds, geo, mavcmd, status, fix, batch, backoff
+    bad = [
+        f"{path.relative_to(ROOT)}:{line} imports {name}"
+        for path in modules
+        for line, name in dotted_imports(path)
+        if name.split(".")[0] not in (*sys.stdlib_module_names, "__future__")
+        and not name.startswith(f"{CONTRACT}.")
+    ]
+    assert bad == []
+
+
+# The server imports the boat's code in two places only, both the SMS bridge, which *is* an
+# edge client for the Wave Gliders (it runs beside the modem and talks to the shore): its
+# shore link reuses the outbox, the HTTP transport and the ack rules; its process loop the
+# systemd notify. Everything else the server shares with the boat comes from the contract.
+SERVER_MAY_IMPORT_EDGE = {
+    "sms/bridge/shore.py": {
+        "edge_client.client.COMMANDS_PATH",
+        "edge_client.client.TELEMETRY_PATH",
+        "edge_client.client.post_ack",
+        "edge_client.outbox.Outbox",
+        "edge_client.outbox.settle_fix_batch",
+        "edge_client.transports.base.Transport",
+        "edge_client.transports.base.TransportError",
+        "edge_client.transports.http.HttpTransport",
+    },
+    "sms/bridge/process.py": {"edge_client.systemd"},
+}
+
+
+def test_the_server_imports_edge_code_only_through_the_contract_or_the_listed_bridge() -> None:
+    found: dict[str, set[str]] = {}
+    for app in LAYER:
+        for path in sorted((ROOT / app).rglob("*.py")):
+            for _, name in dotted_imports(path):
+                if name.split(".")[0] == "edge_client" and not name.startswith(f"{CONTRACT}."):
+                    found.setdefault(str(path.relative_to(ROOT)), set()).add(name)
+    assert found == SERVER_MAY_IMPORT_EDGE
 
 
 # -- import cycles -----------------------------------------------------------------------------

@@ -12,8 +12,8 @@ from django.test import Client
 from rest_framework.test import APIClient
 
 from commands.models import Command
+from edge_client.contract import geo
 from tests.conftest import make_user
-from vessels import geo
 from vessels.models import Mission, Vessel
 from vessels.services import mission_save, mission_save_items
 

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from django.contrib.auth.models import User
 from django.test import Client
 
+from edge_client.contract.status import Status
 from fleet.map_actions import map_actions
 from telemetry.models import SensorChannel
 from telemetry.services import sensor_channel_save
@@ -209,3 +211,17 @@ def test_a_template_mission_or_an_operator_who_may_not_command_gets_no_send_butt
 def test_a_vessels_admin_page_links_to_its_track(admin_ui: Client, vessel_a: Vessel) -> None:
     html = admin_ui.get(f"/admin/vessels/vessel/{vessel_a.pk}/change/").content.decode()
     assert f'href="/fleet/vessels/{vessel_a.slug}/track/"' in html
+
+
+def test_the_fleet_map_takes_command_status_names_from_the_server(
+    operator_user: User, vessel_a: Vessel
+) -> None:
+    fleet = page_config(
+        client_for(operator_user).get("/admin/").content.decode(), "fleet-map-config"
+    )
+    assert fleet["statuses"] == {
+        "unfinished": ["queued", "sent", "acknowledged"],
+        "cancellable": ["queued", "sent"],
+    }
+    script = (Path(__file__).resolve().parents[2] / "fleet/static/fleet/fleet_map.js").read_text()
+    assert not [s for s in Status if f'"{s.value}"' in script]  # no copy of the names left

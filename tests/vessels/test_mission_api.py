@@ -14,9 +14,10 @@ from django.test.utils import CaptureQueriesContext
 from rest_framework.test import APIClient
 
 from commands.models import Command
+from edge_client.contract import geo
 from tests.conftest import OPERATOR_PERMS, make_user
 from tests.support import commands_url
-from vessels import geo, missionfiles
+from vessels import missionfiles
 from vessels.errors import MissionCheckError
 from vessels.missions import MISSION_MAX_ITEMS
 from vessels.models import Mission, Vessel

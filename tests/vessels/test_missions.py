@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from vessels import geo, missions
+from edge_client.contract import geo
+from vessels import missions
 
 FREMANTLE = (-32.0560, 115.7400)
 # WGS84 geodesic lengths (Karney's GeographicLib): one degree along the equator is
-# a·π/180; one degree of latitude from the equator is the meridian arc. vessels.geo uses a
+# a·π/180; one degree of latitude from the equator is the meridian arc. the contract's geo uses a
 # sphere, off by up to ~0.6 % against the ellipsoid.
 EQUATOR_DEGREE_M = 111_319.49
 MERIDIAN_DEGREE_M = 110_574.39

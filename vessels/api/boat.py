@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from django.utils.dateparse import parse_datetime
+from drf_spectacular.utils import inline_serializer
 from rest_framework import serializers
 from rest_framework.negotiation import DefaultContentNegotiation
 from rest_framework.renderers import JSONRenderer
@@ -68,6 +69,18 @@ class AwareDateTimeField(serializers.DateTimeField):
             if parsed is not None and parsed.tzinfo is None:
                 self.fail("naive")
         return super().to_internal_value(value)
+
+
+def batch_answer_schema(name: str) -> serializers.Serializer:
+    """The API schema of a batch upload's answer (edge_client.contract.batch), named ``name``."""
+    return inline_serializer(
+        name,
+        {
+            "accepted": serializers.IntegerField(),
+            "duplicates": serializers.IntegerField(),
+            "rejected": serializers.ListField(child=serializers.DictField()),
+        },
+    )
 
 
 def telem_ack(success: bool, message: str) -> list[dict[str, str]]:

@@ -13,6 +13,7 @@ from rest_framework.request import Request
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
+from vessels.api.conditional import etag_matches
 from vessels.api.serializers import FleetSerializer, VesselSerializer, VesselUpdateSerializer
 from vessels.models import Vessel
 from vessels.permissions import ModelPermissions
@@ -84,7 +85,7 @@ class FleetView(APIView):
         vessels = [fleet_entry(v, now, admin_url) for v in fleet_vessels()]
         encoded = json.dumps(vessels, separators=(",", ":"), sort_keys=True)
         etag = '"' + hashlib.sha256(encoded.encode()).hexdigest()[:32] + '"'
-        if etag in _tags(request.headers.get("If-None-Match", "")):
+        if etag_matches(request.headers.get("If-None-Match"), etag):
             response = HttpResponse(status=304)
         else:
             body = '{"server_time":"%s","vessels":%s}' % (now.isoformat(), encoded)  # noqa: UP031
@@ -92,8 +93,3 @@ class FleetView(APIView):
         response["ETag"] = etag
         response["Cache-Control"] = "private, no-cache"
         return response
-
-
-def _tags(header: str) -> set[str]:
-    # Weak validators compare equal for a GET (RFC 9110 §13.1.2): W/"x" matches "x".
-    return {t.strip().removeprefix("W/") for t in header.split(",") if t.strip()}

@@ -16,6 +16,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from edge_client.contract.mavcmd import MavCmd
 from vessels.errors import MissionFileError
 from vessels.missionfiles.model import (
     Item,
@@ -29,11 +30,12 @@ from vessels.missionfiles.model import (
 
 NAN = math.nan
 
-NAV_WAYPOINT = 16
-NAV_LOITER_TIME = 19
-NAV_RETURN_TO_LAUNCH = 20
-DO_JUMP = 177
-DO_CHANGE_SPEED = 178
+# The boat builds missions from the same numbers (edge_client.contract.mavcmd).
+NAV_WAYPOINT = MavCmd.NAV_WAYPOINT
+NAV_LOITER_TIME = MavCmd.NAV_LOITER_TIME
+NAV_RETURN_TO_LAUNCH = MavCmd.NAV_RETURN_TO_LAUNCH
+DO_JUMP = MavCmd.DO_JUMP
+DO_CHANGE_SPEED = MavCmd.DO_CHANGE_SPEED
 
 # MAV_CMD names (common.xml) for the commands mission files commonly hold; others are
 # named "MAV_CMD <n>".

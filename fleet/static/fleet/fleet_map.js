@@ -8,8 +8,6 @@
   var S = window.Shoreside;
   var el = S.el;
   var COLOURS = { reporting: "#2e7d32", overdue: "#c62828", "never seen": "#757575" };
-  var OPEN = ["queued", "sent", "acknowledged"];
-  var CANCELLABLE = ["queued", "sent"];
   var COMMANDS_POLL_MS = 3000;
   // A move_to farther than this is warned about in the confirmation: a boat's usual move is a
   // few hundred metres; the server refuses past the vessel's limit (MOVE_TO_MAX_M, 5 km).
@@ -504,7 +502,7 @@
     var self = this, v = this.vessels[this.selected], fix = v && v.last_fix;
     this.targets.clearLayers();
     (this.commands || []).forEach(function (c) {
-      if (c.kind !== "move_to" || OPEN.indexOf(c.status) < 0) { return; }
+      if (c.kind !== "move_to" || self.cfg.statuses.unfinished.indexOf(c.status) < 0) { return; }
       var target = [c.params.lat, c.params.lon];
       if (fix) {
         L.polyline([[fix.lat, fix.lon], target], { color: "#00838f", weight: 2, dashArray: "4 6", interactive: false }).addTo(self.targets);
@@ -524,7 +522,7 @@
     if (!this.commands.length) { box.appendChild(el("p", { class: "muted", text: "None yet." })); return; }
     var list = el("ul", { class: "command-list" });
     this.commands.forEach(function (c) {
-      var item = el("li", { "data-uid": c.uid, "data-status": c.status, class: OPEN.indexOf(c.status) >= 0 ? "open" : "closed" }, [
+      var item = el("li", { "data-uid": c.uid, "data-status": c.status, class: self.cfg.statuses.unfinished.indexOf(c.status) >= 0 ? "open" : "closed" }, [
         el("span", { class: "status-badge cmd-" + c.status, text: c.status }),
         " ",
         el("b", { text: c.kind }),
@@ -533,7 +531,7 @@
         el("br"),
         el("span", { class: "muted small" }, [self.ageSpan(c.created_at, " ago"), (c.created_by ? " by " + c.created_by : "") + " via " + c.source + (c.result_detail ? " · " + c.result_detail : "")]),
       ]);
-      if (self.cfg.canCancel && CANCELLABLE.indexOf(c.status) >= 0) {
+      if (self.cfg.canCancel && self.cfg.statuses.cancellable.indexOf(c.status) >= 0) {
         item.appendChild(el("button", { type: "button", class: "link-button cancel-command", text: "cancel", onclick: function () { self.cancelCommand(c.uid, c.kind); } }));
       }
       list.appendChild(item);

@@ -5,7 +5,7 @@
 (function () {
   "use strict";
   var S = (window.Shoreside = window.Shoreside || {});
-  // Mean Earth radius, IUGG; the same sphere as vessels/geo.py (the browser test compares them).
+  // Mean Earth radius, IUGG; the same sphere as edge_client/contract/geo.py (the browser test compares them); JavaScript cannot import the contract, so this is the one copy left.
   var EARTH_RADIUS_M = 6371000;
   var GRID_STEPS = [30, 10, 5, 2, 1, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005];
   var GRID_MAX_LINES = 8;
@@ -15,13 +15,13 @@
   function rad(d) { return (d * Math.PI) / 180; }
 
   S.geo = {
-    // Haversine distance in metres, as vessels.geo.distance_m.
+    // Haversine distance in metres, as edge_client.contract.geo.distance_m.
     distance: function (lat1, lon1, lat2, lon2) {
       var p1 = rad(lat1), p2 = rad(lat2), dp = p2 - p1, dl = rad(lon2 - lon1);
       var a = Math.pow(Math.sin(dp / 2), 2) + Math.cos(p1) * Math.cos(p2) * Math.pow(Math.sin(dl / 2), 2);
       return 2 * EARTH_RADIUS_M * Math.asin(Math.sqrt(Math.min(1, a)));
     },
-    // Initial great-circle bearing, degrees true in [0, 360), as vessels.geo.bearing_deg.
+    // Initial great-circle bearing, degrees true in [0, 360), as edge_client.contract.geo.bearing_deg.
     bearing: function (lat1, lon1, lat2, lon2) {
       var p1 = rad(lat1), p2 = rad(lat2), dl = rad(lon2 - lon1);
       var y = Math.sin(dl) * Math.cos(p2);

@@ -1,8 +1,8 @@
-"""Distances, bearings and offsets on the Earth, for the server side. Pure, stdlib only.
+"""Distances, bearings and offsets on the Earth, for the server, the boat and its simulator.
 
 A sphere of the mean Earth radius (IUGG, 6,371 km) is good to well under a metre at the few
-kilometres between two fixes. The boat has its own copy in ``edge_client/geo.py``: the edge
-client never imports the server's code, and the server does not import the boat's package.
+kilometres a boat covers between two fixes; nothing here needs an ellipsoid. The map pages do
+the same sums in JavaScript (``vessels/static/vessels/mapkit.js``), which cannot import this.
 """
 
 from __future__ import annotations

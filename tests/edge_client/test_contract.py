@@ -1,0 +1,120 @@
+"""The boat–shore contract (edge_client/contract/): one table each, pinned to ArduPilot's own.
+
+The numbers are spelled in the contract so that it stays pure; pymavlink (which the boat runs)
+carries MAVLink's and ArduPilot's definitions, so a typo or a renumbering fails here.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import inspect
+import os
+import re
+
+import pytest
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink.dialects.v20 import ardupilotmega as apm  # noqa: E402
+
+from edge_client import catalog as edge_catalog  # noqa: E402
+from edge_client import mission as edge_mission  # noqa: E402
+from edge_client.contract import fix as fix_shape  # noqa: E402
+from edge_client.contract.kinds import ROVER_MODE_INITIALISING, ROVER_MODE_NAMES, ROVER_MODES  # noqa: E402
+from edge_client.contract.mavcmd import MavCmd  # noqa: E402
+from edge_client.contract.status import FINAL, OPEN, UNFINISHED, Status  # noqa: E402
+
+
+@pytest.mark.parametrize("command", list(MavCmd), ids=lambda c: c.name)
+def test_mav_cmd_numbers_are_mavlinks(command: MavCmd) -> None:
+    assert getattr(apm, f"MAV_CMD_{command.name}") == command
+    assert apm.enums["MAV_CMD"][command].name == f"MAV_CMD_{command.name}"
+
+
+@pytest.mark.parametrize("name", ROVER_MODES)
+def test_rover_modes_are_ardupilots(name: str) -> None:
+    assert getattr(apm, f"ROVER_MODE_{name}") == ROVER_MODES[name]
+
+
+def test_the_boot_mode_is_ardupilots_and_every_number_has_one_name() -> None:
+    assert apm.ROVER_MODE_INITIALIZING == ROVER_MODE_INITIALISING
+    assert ROVER_MODE_NAMES[ROVER_MODE_INITIALISING] == "INITIALISING"
+    assert len(ROVER_MODE_NAMES) == len(ROVER_MODES) + 1
+
+
+def test_the_status_groups_cover_every_status_once() -> None:
+    assert FINAL | UNFINISHED == set(Status) and not FINAL & UNFINISHED
+    assert set(OPEN) <= UNFINISHED and Status.ACKNOWLEDGED in UNFINISHED
+
+
+def test_no_copy_of_the_tables_is_left_on_the_boat() -> None:
+    assert not hasattr(edge_catalog, "ROVER_MODES")
+    assert edge_mission.MAV_CMD_NAV_WAYPOINT is MavCmd.NAV_WAYPOINT
+
+
+def test_the_api_schema_of_a_fix_is_the_contracts_shape() -> None:
+    """FixIn (the schema) once let any battery_v through while the parser kept 0–1000."""
+    from telemetry.api.boat import FixIn  # a DRF serializer: imported here, with the server
+
+    fields = FixIn().fields
+    assert tuple(fields) == fix_shape.FIELDS
+    for name, (lo, hi) in fix_shape.RANGES.items():
+        assert (fields[name].min_value, fields[name].max_value) == (lo, hi), name
+        assert fields[name].required == (name in fix_shape.REQUIRED), name
+
+
+def test_the_parser_takes_its_fields_and_ranges_from_the_contract() -> None:
+    from telemetry.parsing import V1_FIELDS, FixErrors, parse_fix
+
+    assert V1_FIELDS == set(fix_shape.FIELDS)
+    now = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)
+    for name, (lo, hi) in fix_shape.RANGES.items():
+        if name in ("lat", "lon"):
+            continue
+        fix = {"time": now.isoformat(), "lat": 0, "lon": 0, name: hi}
+        assert getattr(parse_fix(fix, now=now), name) in (hi, hi % 360)
+        with pytest.raises(FixErrors):
+            parse_fix({**fix, name: hi + 1}, now=now)
+        with pytest.raises(FixErrors):
+            parse_fix({**fix, name: lo - 1}, now=now)
+
+
+def test_the_boat_writes_only_fields_of_the_contract() -> None:
+    from edge_client.vehicle import VehicleState
+
+    src = inspect.getsource(VehicleState)
+    written = set(re.findall(r'fix\["(\w+)"\]', src))
+    assert written and written <= set(fix_shape.FIELDS)
+
+
+def test_the_servers_batch_answer_settles_the_boats_outbox() -> None:
+    from edge_client.contract.batch import KEYS, BatchAnswer
+    from edge_client.outbox import settle_fix_batch
+    from telemetry.services import IngestResult
+
+    answer = BatchAnswer(accepted=2, duplicates=1)
+    answer.reject(3, {"lat": "must be between -90 and 90"})
+    assert tuple(answer.as_dict()) == KEYS
+    settled = settle_fix_batch([10, 11, 12, 13], answer.as_dict())
+    assert settled.remove == (10, 11, 12, 13) and settled.rejected == (
+        (13, answer.rejected[0]["errors"]),
+    )
+    assert IngestResult is BatchAnswer  # the telemetry upload answers the same shape
+
+
+def test_every_batch_uploads_schema_is_the_contracts_answer() -> None:
+    from drf_spectacular.generators import SchemaGenerator
+
+    from edge_client.contract.batch import KEYS
+
+    components = SchemaGenerator().get_schema(public=True)["components"]["schemas"]
+    for name in ("IngestResult", "CommandReportResult", "SmsUploadResult"):
+        assert tuple(components[name]["properties"]) == KEYS, name
+
+
+def test_backoff_doubles_up_to_its_cap() -> None:
+    from edge_client.contract.backoff import after_failures, doubled
+
+    assert [doubled(d, cap=30.0) for d in (1.0, 8.0, 16.0, 30.0)] == [2.0, 16.0, 30.0, 30.0]
+    assert doubled(1e6) == 2e6  # uncapped by default
+    assert [after_failures(5.0, n, cap=120.0) for n in (0, 1, 3, 5)] == [5.0, 10.0, 40.0, 120.0]
+    assert after_failures(0.5, 10**6, cap=1e9) == 0.5 * 2**6  # at most six doublings
