@@ -83,7 +83,10 @@ def race(first: Callable[[], object], second: Callable[[], object], watch: Watch
 
 
 def is_twin_check(sql: str) -> bool:
-    return sql.startswith("SELECT 1") and "delivery_key" in sql
+    """The look for an earlier delivery of the same SMS (sms.services.incoming._delivered):
+    a SELECT whose WHERE is on the delivery key (every SELECT of the table names the column)."""
+    where = sql.partition(" WHERE ")[2]
+    return sql.startswith("SELECT") and where.startswith('"sms_smsmessage"."delivery_key" =')
 
 
 def test_a_delivery_racing_its_twin_is_handled_once(glider: Vessel) -> None:
