@@ -7,6 +7,7 @@ from __future__ import annotations
 import datetime as dt
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from typing import Any
 
 from django.conf import settings
 from django.db import IntegrityError, transaction
@@ -41,13 +42,9 @@ def reply_store(
     status = SendStatus.PENDING if send_replies else SendStatus.NOT_SENT
     hold = send_replies and reply_window_s > 0 and any(c.status in UNFINISHED for c in commands)
     received_at = message.received_at
-    reply = SmsMessage(
-        direction=Direction.OUT,
-        vessel=message.vessel,
-        number=message.number_e164,
-        number_e164=message.number_e164,
-        authorised_number=entry,
-        authorised=True,
+    reply = _to_sender(
+        message,
+        entry,
         text=language.compose_reply(answers),
         parsed=[replies.answer_record(a, by_answer.get(i)) for i, a in enumerate(answers)],
         reply_to=message,
@@ -56,6 +53,20 @@ def reply_store(
         due_at=received_at + dt.timedelta(seconds=reply_window_s) if hold else None,
     )
     return _save_checked(reply)
+
+
+def _to_sender(message: SmsMessage, entry: AuthorisedNumber, **fields: Any) -> SmsMessage:
+    """An outgoing SMS (not yet saved) to the authorised sender of ``message``: a reply, or
+    the rate limit's notice."""
+    return SmsMessage(
+        direction=Direction.OUT,
+        vessel=message.vessel,
+        number=message.number_e164,
+        number_e164=message.number_e164,
+        authorised_number=entry,
+        authorised=True,
+        **fields,
+    )
 
 
 def answer_item(
@@ -93,13 +104,9 @@ def rate_notice(
     )
     try:
         with transaction.atomic():
-            notice = SmsMessage(
-                direction=Direction.OUT,
-                vessel=message.vessel,
-                number=message.number_e164,
-                number_e164=message.number_e164,
-                authorised_number=entry,
-                authorised=True,
+            notice = _to_sender(
+                message,
+                entry,
                 text=text,
                 reply_to=message,
                 delivery_key=key,
