@@ -21,6 +21,8 @@ NUL_MESSAGE = "Null characters are not allowed."
 # (about 890 levels: a RecursionError, a 500 that cost the rest of a batch).
 JSON_MAX_DEPTH = 32
 _SURROGATE = re.compile("[\ud800-\udfff]")
+# Both at once: what no stored text may hold.
+UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
 
 
 def unstorable(text: str) -> str | None:
@@ -30,6 +32,12 @@ def unstorable(text: str) -> str | None:
     if found := _SURROGATE.search(text):
         return f"Surrogate characters are not allowed: U+{ord(found.group()):X}."
     return None
+
+
+def replace_unstorable(text: str) -> str:
+    """``text`` with NUL and lone surrogates as U+FFFD: for text the shore reads from its own
+    hardware (a modem, the C&C box) or keeps as a note, which is logged rather than refused."""
+    return UNSTORABLE.sub("\ufffd", text)
 
 
 def json_unstorable(value: Any) -> str | None:

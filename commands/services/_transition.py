@@ -4,12 +4,12 @@ every command service, and the cleaning of a boat's free text before it is store
 from __future__ import annotations
 
 import datetime as dt
-import re
 from typing import Any
 
 from commands.lifecycle import FINAL, OPEN, Status, check_transition
 from commands.models import Command, CommandEvent
 from vessels.services import vessel_bump_commands_version
+from vessels.text import replace_unstorable
 
 # Which timestamp field each status sets.
 _STAMP = {
@@ -23,10 +23,6 @@ _STAMP = {
 }
 # The boat poll lists the OPEN statuses; moving to any other changes its list (and ETag).
 _LEAVES_BOAT_LIST = frozenset(Status) - frozenset(OPEN)
-
-
-# NUL and the UTF-16 surrogate range: neither can be stored as text on PostgreSQL.
-_UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
 
 
 def _transition(
@@ -74,4 +70,4 @@ def _transition(
 def _storable_text(text: str, limit: int = 2000) -> str:
     """A boat's free text as the database can keep it: NUL (PostgreSQL refuses it) and lone
     surrogates (valid JSON escapes, but not UTF-8) become U+FFFD rather than a 500."""
-    return _UNSTORABLE.sub("\ufffd", text[:limit])
+    return replace_unstorable(text[:limit])

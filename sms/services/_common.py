@@ -3,15 +3,11 @@ the checked save."""
 
 from __future__ import annotations
 
-import re
-
 from sms.models import SmsMessage
 
 # Longer texts are stored cut (and refused whole by the language, which reads MAX_TEXT).
 TEXT_STORE_MAX = 4000
 DETAIL_MAX = 200
-# NUL and the UTF-16 surrogate range: PostgreSQL cannot store either as text.
-_UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
 
 
 # Checked by the database instead (full_clean would read each one back): the foreign keys are

@@ -24,13 +24,13 @@ from sms.level2.inner import InnerCommandTable
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Outcome, Role, SmsMessage
 from sms.services import replies as replying
 from sms.services._common import (
-    _UNSTORABLE,
     DETAIL_MAX,
     TEXT_STORE_MAX,
     _save_checked,
 )
 from sms.services.numbers import e164_or_blank
 from vessels.models import Vessel
+from vessels.text import replace_unstorable
 
 logger = logging.getLogger(__name__)
 
@@ -92,8 +92,8 @@ def sms_handle_incoming(
 
     Everything is written in one transaction.
     """
-    text = _UNSTORABLE.sub("\ufffd", text[:TEXT_STORE_MAX])
-    number = _UNSTORABLE.sub("\ufffd", number.strip())[:RAW_NUMBER_MAX]
+    text = replace_unstorable(text[:TEXT_STORE_MAX])
+    number = replace_unstorable(number.strip())[:RAW_NUMBER_MAX]
     key = _delivery_key(vessel, number, text, modem_timestamp)
     if key and (seen := _delivered(key)):
         return seen

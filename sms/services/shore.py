@@ -19,7 +19,7 @@ from commands.models import Command
 from edge_client.contract.batch import BatchAnswer
 from sms.errors import InvalidNumber
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SmsMessage
-from sms.services._common import _UNSTORABLE, DETAIL_MAX, TEXT_STORE_MAX, _save_checked
+from sms.services._common import DETAIL_MAX, TEXT_STORE_MAX, _save_checked
 from sms.services.numbers import (
     authorised_number_save,
     e164_or_blank,
@@ -29,6 +29,7 @@ from sms.services.numbers import (
 from vessels.batch import Unreadable
 from vessels.clock import check_plausible
 from vessels.models import Vessel
+from vessels.text import replace_unstorable
 
 logger = logging.getLogger(__name__)
 
@@ -179,7 +180,7 @@ def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
     origin = entry["id"]
     if SmsMessage.objects.filter(vessel=vessel, origin_id=origin).exists():
         return False
-    number = _UNSTORABLE.sub("\ufffd", entry["number"])[:RAW_NUMBER_MAX]
+    number = replace_unstorable(entry["number"])[:RAW_NUMBER_MAX]
     e164 = e164_or_blank(number)
     reply_to = None
     if entry.get("reply_to"):
@@ -195,7 +196,7 @@ def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
                 authorised_number=AuthorisedNumber.objects.filter(number=e164).first()
                 if e164
                 else None,
-                text=_UNSTORABLE.sub("\ufffd", entry.get("text", "")[:TEXT_STORE_MAX]),
+                text=replace_unstorable(entry.get("text", "")[:TEXT_STORE_MAX]),
                 authorised=bool(entry.get("authorised")),
                 outcome=entry.get("outcome", ""),
                 detail=entry.get("detail", "")[:DETAIL_MAX],

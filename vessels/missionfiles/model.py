@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,6 +23,7 @@ from vessels.missions import (
     SPEED_MAX_MPS,
     SPEED_MIN_MPS,
 )
+from vessels.text import UNSTORABLE
 
 
 @dataclass(frozen=True)
@@ -75,16 +75,14 @@ def position(where: str, lat: Any, lon: Any) -> tuple[float, float]:
     return float(lat), float(lon)
 
 
-# The API's rule for text (DRF's CharField: ProhibitNullCharactersValidator and
-# ProhibitSurrogateCharactersValidator): PostgreSQL cannot store NUL, and a lone surrogate (a
-# valid JSON escape, but not UTF-8) breaks every page and answer that shows it.
-_UNSTORABLE = re.compile("[\x00\ud800-\udfff]")
+# The API's rule for text (vessels.text, as DRF's CharField): PostgreSQL cannot store NUL, and
+# a lone surrogate (a valid JSON escape, but not UTF-8) breaks every page that shows it.
 
 
 def checked_text(where: str, value: str) -> str:
     """``value``, a string taken from a file, if it can be stored and shown; else a
     MissionFileError naming ``where`` (the offending text is not echoed: it cannot be)."""
-    found = _UNSTORABLE.search(value)
+    found = UNSTORABLE.search(value)
     if found:
         char = "a NUL character" if found.group() == "\x00" else "a lone surrogate"
         raise MissionFileError(
