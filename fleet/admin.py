@@ -14,6 +14,7 @@ from django.core.exceptions import PermissionDenied
 from django.db.models import QuerySet
 from django.http import Http404, HttpRequest, HttpResponse, HttpResponseNotAllowed
 from django.shortcuts import redirect
+from django.template.response import TemplateResponse
 from django.urls import path, reverse
 from django.utils.dateparse import parse_datetime
 from django.utils.html import format_html, format_html_join
@@ -127,16 +128,20 @@ class FleetMissionAdmin(MissionAdmin):
         mission = self.get_object(request, object_id)
         extra = dict(extra_context or {})
         if mission is not None and mission.vessel and self.has_send_permission(request):
-            items = mission.item_dicts()
-            fix = mission.vessel.last_fix or {}
-            extra["send_confirmation"] = missions.send_confirmation(
-                mission_review(mission=mission),
-                items=items,
-                end=mission.end,
-                vessel_name=mission.vessel.name,
-                last_fix=(fix["lat"], fix["lon"]) if "lat" in fix else None,
-            )
+            extra["send_confirmation"] = self._send_summary(mission)
         return super().change_view(request, object_id, form_url, extra)
+
+    @staticmethod
+    def _send_summary(mission: Mission) -> str:
+        """What an operator confirms before ``mission`` (one with a vessel) is sent."""
+        fix = mission.vessel.last_fix or {}
+        return missions.send_confirmation(
+            mission_review(mission=mission),
+            items=mission.item_dicts(),
+            end=mission.end,
+            vessel_name=mission.vessel.name,
+            last_fix=(fix["lat"], fix["lon"]) if "lat" in fix else None,
+        )
 
     def send_view(self, request: HttpRequest, pk: int) -> HttpResponse:
         """The mission page's Send: queues the mission only if the route the operator
@@ -177,8 +182,31 @@ class FleetMissionAdmin(MissionAdmin):
         return redirect("admin:vessels_mission_change", mission.pk)
 
     @admin.action(description="Send selected missions to their vessel", permissions=["send"])
-    def send_to_vessel(self, request: HttpRequest, queryset: QuerySet[Mission]) -> None:
+    def send_to_vessel(
+        self, request: HttpRequest, queryset: QuerySet[Mission]
+    ) -> HttpResponse | None:
+        """Asks first, as the mission page's Send does: a page with each mission's summary
+        (waypoints, distance, time, the boat's distance to waypoint 1, the end). Confirmed,
+        it sends each mission as it was summed up; one saved since is not sent."""
+        if request.POST.get("confirm") != "yes":
+            rows = [(m, self._send_summary(m) if m.vessel else None) for m in queryset]
+            return TemplateResponse(
+                request,
+                "admin/vessels/mission/send_confirm.html",
+                {
+                    **self.admin_site.each_context(request),
+                    "title": "Send these missions?",
+                    "opts": self.model._meta,
+                    "rows": rows,
+                    "action": "send_to_vessel",
+                },
+            )
         for mission in queryset:
+            shown_at = parse_datetime(request.POST.get(f"updated_at_{mission.pk}") or "")
+            stale = missions.saved_since(mission.updated_at, shown_at) if shown_at else None
+            if stale or shown_at is None:
+                messages.error(request, f"{mission}: {stale or 'not sent: it was not summed up'}")
+                continue
             try:
                 command = mission_send(
                     mission=mission, source=Source.ADMIN, created_by=request.user.get_username()

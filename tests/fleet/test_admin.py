@@ -30,6 +30,54 @@ def test_the_vessel_page_shows_keys_recent_fixes_and_commands(
     assert "commands/status.css" in page
 
 
+def send_action(client: Client, chosen: list[Mission]) -> str:
+    """The list's Send action as an operator uses it: choose, read the summaries (nothing is
+    queued yet), confirm. Returns the page after the confirmation."""
+    chosen_pks = [m.pk for m in chosen]
+    asked = client.post(
+        "/admin/vessels/mission/", {"action": "send_to_vessel", "_selected_action": chosen_pks}
+    )
+    assert asked.status_code == 200 and "Send these missions?" in asked.content.decode()
+    assert not Command.objects.exists()
+    versions = {
+        f"updated_at_{m.pk}": m.updated_at.isoformat()
+        for m in Mission.objects.filter(pk__in=chosen_pks)
+    }
+    answer = client.post(
+        "/admin/vessels/mission/",
+        {"action": "send_to_vessel", "_selected_action": chosen_pks, "confirm": "yes", **versions},
+        follow=True,
+    )
+    return answer.content.decode()
+
+
+def test_the_send_action_asks_first_with_each_summary_and_skips_a_mission_saved_since(
+    admin_ui: Client, reported: Vessel
+) -> None:
+    mission = mission_save(mission=Mission(name="Bay", vessel=reported))
+    mission_save_items(mission=mission, items=[{"lat": -31.9505, "lon": 115.8705}])
+    asked = admin_ui.post(
+        "/admin/vessels/mission/", {"action": "send_to_vessel", "_selected_action": [mission.pk]}
+    ).content.decode()
+    assert "Bay</strong>: Send to SPAB: 1 waypoint" in asked
+    assert "from waypoint 1; then it stops at the last waypoint." in asked
+    assert not Command.objects.exists()
+    mission.refresh_from_db()
+    summed_up = mission.updated_at.isoformat()
+    mission_save_items(mission=mission, items=[{"lat": -31.96, "lon": 115.88}])  # saved since
+    confirm = {
+        "action": "send_to_vessel",
+        "_selected_action": [mission.pk],
+        "confirm": "yes",
+        f"updated_at_{mission.pk}": summed_up,
+    }
+    page = admin_ui.post("/admin/vessels/mission/", confirm, follow=True).content.decode()
+    assert "Bay: not sent: the mission was saved at" in page
+    assert not Command.objects.exists()
+    assert "queued as command" in send_action(admin_ui, [mission])
+    assert Command.objects.get().params["items"][0]["lat"] == -31.96
+
+
 def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(
     admin_ui: Client, vessel_a: Vessel, glider: Vessel
 ) -> None:
@@ -38,12 +86,7 @@ def test_the_send_action_queues_a_mission_and_explains_what_it_cannot_send(
     template = mission_save(mission=Mission(name="Template"))
     for_glider = mission_save(mission=Mission(name="Glider run", vessel=glider))
     mission_save_items(mission=for_glider, items=[{"lat": -32.0, "lon": 115.3}])
-    response = admin_ui.post(
-        "/admin/vessels/mission/",
-        {"action": "send_to_vessel", "_selected_action": [ready.pk, template.pk, for_glider.pk]},
-        follow=True,
-    )
-    page = response.content.decode()
+    page = send_action(admin_ui, [ready, template, for_glider])
     assert "Template: a template has no vessel" in page
     assert "Glider run: mission is not available for wave_glider vessels" in page
     command = Command.objects.get()
@@ -92,12 +135,8 @@ def test_the_send_action_shows_why_a_mission_fails_its_checks(
     mission_save_items(
         mission=far, items=[{"lat": -31.9, "lon": 115.8}, {"lat": -32.0, "lon": 115.8}]
     )
-    response = admin_ui.post(
-        "/admin/vessels/mission/",
-        {"action": "send_to_vessel", "_selected_action": [far.pk]},
-        follow=True,
-    )
-    assert "Far: leg 1 → 2 is 11.1 km, longer than the limit of 1.0 km" in response.content.decode()
+    page = send_action(admin_ui, [far])
+    assert "Far: leg 1 → 2 is 11.1 km, longer than the limit of 1.0 km" in page
     assert not Command.objects.exists()
 
 
