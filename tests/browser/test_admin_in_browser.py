@@ -10,7 +10,9 @@ from selenium.webdriver.support.ui import Select, WebDriverWait
 from commands.models import Command
 from telemetry.services import fix_ingest
 from tests.browser.support import log_in, shot
-from vessels.models import Vessel
+from tests.conftest import OPERATOR_PERMS, make_user
+from vessels.models import Mission, Vessel
+from vessels.services import mission_save, mission_save_items
 
 # A real chromium per test: not for the quick loop.
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
@@ -73,3 +75,30 @@ def test_the_admin_loads_no_asset_from_the_internet(
         outside = [u for u in urls if not u.startswith(live_server.url)]
         assert outside == [], path
     assert "swagger-ui" in browser.page_source
+
+
+def test_the_mission_lists_send_asks_with_each_summary_before_anything_is_queued(
+    browser, live_server, vessel_a: Vessel, make_fix
+) -> None:
+    operator_user = make_user(
+        "mia", [*OPERATOR_PERMS, "vessels.view_mission", "vessels.change_mission"]
+    )
+
+    fix_ingest(vessel=vessel_a, records=[make_fix()])
+    mission = mission_save(mission=Mission(name="Bay", vessel=vessel_a))
+    mission_save_items(mission=mission, items=[{"lat": -31.9505, "lon": 115.8705}])
+    log_in(browser, live_server, operator_user)
+    browser.get(live_server.url + "/admin/vessels/mission/")
+    browser.find_element(
+        By.CSS_SELECTOR, f'input[name="_selected_action"][value="{mission.pk}"]'
+    ).click()
+    Select(browser.find_element(By.NAME, "action")).select_by_value("send_to_vessel")
+    browser.find_element(By.NAME, "index").click()
+    WebDriverWait(browser, 20).until(lambda b: "Send these missions?" in b.page_source)
+    summary = browser.find_element(By.CSS_SELECTOR, "ul.send-summaries").text
+    assert summary.startswith("Bay: Send to SPAB: 1 waypoint")
+    assert not Command.objects.exists()
+    shot(browser, "mission-list-send-confirm")
+    browser.find_element(By.CSS_SELECTOR, 'input[type=submit][value="Yes, send them"]').click()
+    WebDriverWait(browser, 20).until(lambda b: "queued as command" in b.page_source)
+    assert Command.objects.get().kind == "mission"
