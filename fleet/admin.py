@@ -160,13 +160,12 @@ class FleetMissionAdmin(MissionAdmin):
         # The version the page showed: someone else's save since (another route, another
         # vessel) must not go out under this page's summary.
         shown_at = parse_datetime(request.POST.get("updated_at") or "")
-        stale = (
-            missions.saved_since(mission.updated_at, shown_at)
-            if shown_at
-            else "not sent: the page did not say which version of the mission it showed; reload it"
-        )
-        if stale:
-            messages.error(request, f"{mission}: {stale}")
+        if shown_at is None:
+            messages.error(
+                request,
+                f"{mission}: not sent: the page did not say which version of the mission it "
+                "showed; reload it",
+            )
             return redirect("admin:vessels_mission_change", mission.pk)
         try:
             command = mission_send(
@@ -174,6 +173,7 @@ class FleetMissionAdmin(MissionAdmin):
                 source=Source.ADMIN,
                 created_by=request.user.get_username(),
                 confirmed=confirmed,
+                seen_at=shown_at,
             )
         except CommandError as exc:
             messages.error(request, f"{mission}: {exc.message}")
@@ -203,13 +203,15 @@ class FleetMissionAdmin(MissionAdmin):
             )
         for mission in queryset:
             shown_at = parse_datetime(request.POST.get(f"updated_at_{mission.pk}") or "")
-            stale = missions.saved_since(mission.updated_at, shown_at) if shown_at else None
-            if stale or shown_at is None:
-                messages.error(request, f"{mission}: {stale or 'not sent: it was not summed up'}")
+            if shown_at is None:
+                messages.error(request, f"{mission}: not sent: it was not summed up")
                 continue
             try:
                 command = mission_send(
-                    mission=mission, source=Source.ADMIN, created_by=request.user.get_username()
+                    mission=mission,
+                    source=Source.ADMIN,
+                    created_by=request.user.get_username(),
+                    seen_at=shown_at,
                 )
             except CommandError as exc:
                 messages.error(request, f"{mission}: {exc.message}")

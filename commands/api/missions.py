@@ -17,7 +17,6 @@ from rest_framework.views import APIView
 from commands.api.operator import CommandSerializer
 from commands.models import Command, Source
 from commands.services import mission_send
-from vessels.missions import saved_since
 from vessels.models import Vessel
 from vessels.permissions import CanViewVessels, ModelPermissions
 from vessels.selectors import missions_visible_to
@@ -54,13 +53,11 @@ class MissionSendView(APIView):
         mission = get_object_or_404(missions_visible_to(request.user), pk=pk)
         incoming = MissionSendSerializer(data=request.data)
         incoming.is_valid(raise_exception=True)
-        stale = saved_since(mission.updated_at, incoming.validated_data.get("updated_at"))
-        if stale:
-            raise serializers.ValidationError({"updated_at": [stale]})
         command = mission_send(
             mission=mission,
             vessel=incoming.validated_data.get("vessel"),
             source=Source.API,
             created_by=request.user.get_username(),
+            seen_at=incoming.validated_data.get("updated_at"),
         )
         return Response(CommandSerializer(command).data, status=status.HTTP_201_CREATED)

@@ -38,13 +38,19 @@ def mission_send(
     created_by: str = "",
     now: dt.datetime | None = None,
     confirmed: Any = _UNCONFIRMED,
+    seen_at: dt.datetime | None = None,
 ) -> Command:
     """Queue ``mission`` as a `mission` command for ``vessel`` (default: the mission's own).
     Checked like every command (catalog, mission checks); raises CommandError.
 
     ``confirmed``, the route the operator confirmed (``{"end", "items"}``, as the planner
     showed it), must be the saved one, or nothing is sent: an unsaved edit on screen (or
-    someone else's save since) never goes out as the saved route behind the operator's back."""
+    someone else's save since) never goes out as the saved route behind the operator's back.
+    ``seen_at``, the mission's ``updated_at`` as the caller read it (a page, a summary, an API
+    read), must still be its version: a save since (another route, another vessel) is refused.
+    """
+    if stale := missions.saved_since(mission.updated_at, seen_at):
+        raise CommandError(stale, field="updated_at")
     vessel = vessel or mission.vessel
     if vessel is None:
         raise CommandError("a template has no vessel; copy it to one.", field="vessel")
