@@ -1,6 +1,6 @@
 """The boat's install: the project with its `[edge]` extra alone, in a virtualenv of its own.
 
-What the Pi gets (edge_client/README.md, "Install on a Pi"): pip installs this checkout with
+What the Pi gets (docs/edge-client.md, "Install on a Pi"): pip installs this checkout with
 `[edge]`, from PyPI through pip's cache, and nothing of the server comes with it. The edge
 client from that virtualenv then drives the simulator against the live server for a few
 seconds; its fixes must arrive, and it must have loaded no server package on the way.
