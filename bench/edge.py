@@ -1,4 +1,4 @@
-"""Edge client footprint: memory, CPU and bytes on the wire, against the thesis' client.
+"""Edge client footprint: memory, CPU and bytes on the wire, against the original SPAB client.
 
     python -m bench.edge [--duration 60]
 
@@ -6,15 +6,15 @@ Runs, side by side for ``--duration`` seconds (after a short warm-up):
 
 - the simulated Rover (``edge_client.sim``) streaming GLOBAL_POSITION_INT at 4 Hz, one per client;
 - the edge client (real process, HTTP transport) with telemetry every 2 s, polling every 2 s
-  (the thesis' cadence) and every 10 s (the default), each against its own tiny stdlib HTTP
+  (the original cadence) and every 10 s (the default), each against its own tiny stdlib HTTP
   server that speaks the boat API (ETag/304 included) and counts every byte in and out;
-- the thesis' client as a baseline (seed §3.1, §4.2): every 2 s one JSON fix per POST to
+- the original SPAB client as a baseline (docs/benchmarks.md): every 2 s one JSON fix per POST to
   ``data.cgi`` and a full GET of ``requestCommands.cgi``, one TCP connection per request as
   through the F2414 modem, with minimal hand-written headers (generous to the baseline);
 - an idle Python with the same imports, as the memory baseline.
 
 Bytes are HTTP bytes (request and response lines, headers, bodies); TCP/IP and TLS overhead is
-not counted, but the number of TCP connections is shown (the thesis' client opened one per
+not counted, but the number of TCP connections is shown (the original client opened one per
 request; the HTTP transport keeps one alive).
 
 Then the outbox's writes to its storage (an SD card on the Pi) for an hour of 1 Hz fixes, run
@@ -200,8 +200,8 @@ class EdgeRun:
         self.server.shutdown()
 
 
-class ThesisClient:
-    """The thesis' client loop: one fix per POST, a full GET every period, a connection each."""
+class SpabClient:
+    """The SPAB client's loop: one fix per POST, a full GET every period, a connection each."""
 
     def __init__(self) -> None:
         self.server = serve()
@@ -231,7 +231,7 @@ class ThesisClient:
     def end(self) -> dict:
         wall = time.monotonic() - self.t0
         delta = {k: self.server.stats[k] - self.stats0[k] for k in self.stats0}
-        return {"label": "thesis client: 1 fix/POST + full GET every 2 s", "wall": wall, **delta}
+        return {"label": "SPAB client: 1 fix/POST + full GET every 2 s", "wall": wall, **delta}
 
     def close(self) -> None:
         self.stop.set()
@@ -369,16 +369,16 @@ def main(argv: list[str] | None = None) -> int:
             EdgeRun("edge client: HTTP + ETag, poll 2 s", 2.0, Path(tmp)),
             EdgeRun("edge client: HTTP + ETag, poll 10 s (default)", 10.0, Path(tmp)),
         ]
-        thesis = ThesisClient()
+        spab = SpabClient()
         try:
             time.sleep(WARMUP_S)
-            for r in [*runs, thesis]:
+            for r in [*runs, spab]:
                 r.begin()
             time.sleep(args.duration)
             results = [r.end() for r in runs]
-            baseline = thesis.end()
+            baseline = spab.end()
         finally:
-            for r in [*runs, thesis]:
+            for r in [*runs, spab]:
                 r.close()
     idle = idle_baseline_mb()
 
@@ -396,7 +396,7 @@ def main(argv: list[str] | None = None) -> int:
     print("Bytes on the wire per hour (HTTP: request/status lines, headers, bodies)")
     print(
         f"{'client':48} {'up B/h':>9} {'down B/h':>9} {'total B/h':>10} {'req/h':>6} "
-        f"{'TCP conn/h':>10} {'fixes/h':>8} {'vs thesis':>9}"
+        f"{'TCP conn/h':>10} {'fixes/h':>8} {'vs SPAB':>9}"
     )
     base_total = per_hour(baseline["up"] + baseline["down"], baseline["wall"])
     for r in [baseline, *results]:

@@ -2,7 +2,7 @@
 
 Run: ``python -m bench.level2`` (prints figures; asserts nothing).
 
-* Codec, status-reply-sized frames (31 bytes, level2.md §7): encode with ``bytes(Frame)`` and
+* Codec, status-reply-sized frames (31 bytes: docs/level2.md): encode with ``bytes(Frame)`` and
   decode through the incremental :class:`Decoder`, against a baseline of plain ``struct`` work on
   pre-split frames (pack of the fields; unpack of the header) with no CRC, escaping or framing.
 * Reply latency through the serial runner over a pseudo-terminal pair: the time from the last

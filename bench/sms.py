@@ -33,7 +33,7 @@ PARSE_TARGET = 50_000  # issue 10: >= 50,000 SMS/s
 NUMBERS = 100
 BRIDGE_EVERY = 20  # SMS between the glider taking its commands
 SEED = 10  # the texts are random but the same in every run, so runs compare
-# The field trial's mix (thesis Table 4 and around it), each with its values drawn afresh:
+# The field trials' commands and their like (docs/sms.md), each with its values drawn afresh:
 # every text differs, so nothing keyed on the text (a cache) could flatter the figures.
 TEMPLATES: list[Callable[[random.Random], str]] = [
     lambda r: f"#FHEAD {r.randint(0, 359)}",

@@ -249,7 +249,7 @@ def main(argv: list[str] | None = None) -> int:
     show("bridge's own time, SMS → C&C (the two above)", own, [])
     show(
         f"SMS arrives → inner command at the C&C (poll period {args.period} s, then the "
-        f"C&C's own {QUEUED_DELAY_S:g} s before its request, level2.md §9)",
+        f"C&C's own {QUEUED_DELAY_S:g} s before its request, docs/level2.md)",
         bridge_handover.total_ms,
         [],
     )

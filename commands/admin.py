@@ -109,7 +109,7 @@ class CommandAdmin(admin.ModelAdmin):
         return obj is None and super().has_change_permission(request, obj)
 
     def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
-        # Deleting would erase the transition history (DESIGN §3: logs stay, read-only).
+        # Deleting would erase the transition history (logs stay, read-only: docs/operating.md).
         return False
 
     def save_model(self, request: HttpRequest, obj: Command, form: Any, change: bool) -> None:

@@ -1,4 +1,4 @@
-"""The command catalog: every command kind, its parameters, ranges and text form (DESIGN §4).
+"""The command catalog: every command kind, its parameters, ranges, text form (docs/operating.md).
 
 Pure Python: no ORM, no DRF. The admin form, the REST API and the SMS parser all validate
 through :func:`validate` and adapt :class:`CatalogError` into their own error type.
@@ -26,7 +26,7 @@ from vessels.missions import (
     format_distance,
 )
 
-# Wave Glider waypoint table indices (thesis Table 3: "at the specified index (1-254)").
+# Wave Glider waypoint table indices, 1-254 (docs/sms.md#the-language).
 WG_INDEX_MIN, WG_INDEX_MAX = 1, 254
 
 
@@ -495,7 +495,7 @@ def sms_kind(word: str) -> CommandKind:
 def parse_text(text: str, *, vessel_kind: str = WAVE_GLIDER) -> ValidCommand:
     """Parse the SMS text form (``#FHEAD 230``, ``#FCOURSE HOLD 3 4 1``) into a valid command.
 
-    Every token must be used: ``#FSEQ 1 1`` is refused rather than sent short (thesis Table 4).
+    Every token must be used: ``#FSEQ 1 1`` is refused rather than sent short (docs/level2.md).
     """
     word, args = split_text(text)
     return parse_words(word, args, vessel_kind=vessel_kind)

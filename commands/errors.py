@@ -29,7 +29,7 @@ class CommandNotFound(CommandError):
 
 
 class TransitionError(CommandError):
-    """The command's status cannot move to ``target`` from where it is (DESIGN §4)."""
+    """The command's status cannot move to ``target`` from where it is (docs/api.md#boat-api-v1)."""
 
     # ``str``, not ``commands.lifecycle.Status`` (a StrEnum, so a str): the lifecycle raises this
     # error, and naming its enum here would tie the two modules into an import cycle.

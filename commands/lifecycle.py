@@ -1,4 +1,4 @@
-"""Command lifecycle (DESIGN §4): the legal transitions between statuses. Pure.
+"""Command lifecycle (docs/api.md, 'Delivery'): the legal transitions between statuses. Pure.
 
 The status names, and which are open or final, are the boat–shore contract's
 (``edge_client/contract/status.py``); the migrations name ``commands.lifecycle.Status``.

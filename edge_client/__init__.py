@@ -1,7 +1,7 @@
 """Shoreside edge client: the program on the boat's Raspberry Pi.
 
 It sits between ArduPilot (MAVLink over serial, or UDP/TCP for simulators) and the shore server
-(the boat API, DESIGN.md §5) and replaces the thesis' client (seed §4: telemetry manager, Mavlink
+(the boat API, docs/api.md) and replaces the original SPAB boat's client (telemetry manager, Mavlink
 manager, F2414 modem class, started by cron through a respawn script).
 
 Standalone on purpose: it never imports Django, and its only third-party dependencies are

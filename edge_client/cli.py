@@ -67,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args_list or (
         args_list[0] not in COMMANDS and args_list[0] not in ("-h", "--help", "--version")
     ):
-        args_list.insert(0, "run")  # DESIGN §6 spells it `python -m edge_client --config ...`
+        args_list.insert(0, "run")  # as docs/edge-client.md: `python -m edge_client --config ...`
     args = build_parser().parse_args(args_list)
     overrides = {
         "server": args.server,

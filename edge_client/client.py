@@ -39,7 +39,7 @@ TELEMETRY_PATH = "/api/v1/boat/telemetry/"
 COMMANDS_PATH = "/api/v1/boat/commands/"
 ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
 MAX_OUTAGE_BACKOFF_S = 60.0
-# Ack answers that will never change (DESIGN §5): unknown/other vessel's command, illegal
+# Ack answers that will never change (docs/api.md#errors): unknown/other vessel's command, illegal
 # transition (cancelled meanwhile), malformed.
 ACK_DROP_STATUSES = frozenset({400, 404, 409})
 # An older server knows no `superseded` ack (400): the command is then acked `failed` with the

@@ -1,6 +1,6 @@
 """Commands from the server → autopilot actions, each command uid run exactly once.
 
-Delivery is at least once (DESIGN §4): a command is offered on every poll until the boat acks
+Delivery is at least once (docs/api.md): a command is offered on every poll until the boat acks
 it, and again after a restart if the ack had not gone out. So every uid is recorded in the
 outbox database *before* it runs (:meth:`Outbox.command_claim`) and a uid seen before is never
 run again. A command that was running when the client died cannot be resumed safely; at the
@@ -10,7 +10,7 @@ Acks go into the outbox (they survive an outage like fixes do): ``acknowledged``
 autopilot has accepted the command, then ``done`` or ``failed`` with a reason a person can read,
 or ``superseded`` when a newer navigation command (or a disarm) replaced it before it ended.
 
-Kind → action (mission-files.md for the Rover modes):
+Kind → action (docs/edge-client.md#commands for the Rover modes):
 ``move_to`` GUIDED + SET_POSITION_TARGET_GLOBAL_INT, done within the acceptance radius;
 ``hold`` HOLD; ``resume`` AUTO; ``return_home`` RTL, done within the acceptance radius of home
 (or when Rover says "Reached destination" and holds there); ``set_mode``; ``arm``/``disarm``;

@@ -4,7 +4,7 @@ References: RFC 9112 (HTTP/1.1 message syntax: §2.2 CRLF line endings, §3 requ
 line, §6 message body length: Content-Length, chunked, or read until the connection closes),
 RFC 9110 §7.2 (Host is required in HTTP/1.1).
 
-The modem is a transparent pipe (seed §2.1): whatever we write after the ``don`` trigger goes to
+The modem is a transparent pipe (docs/edge-client.md): what we write after the ``don`` goes to
 the server byte for byte, and the server's answer comes back in pieces of whatever size the serial
 port hands us. :class:`ResponseParser` is fed those pieces and says when the answer is complete;
 ``close()`` tells it the bytes stopped (the server closed, or we gave up waiting) so that an

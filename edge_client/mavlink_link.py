@@ -14,7 +14,7 @@ REQUEST_DATA_STREAM (deprecated, still honoured by ArduPilot, needed by old firm
 
 MAVLink version: we start in MAVLink 1 (unless $MAVLINK20 is set) and pymavlink switches to
 MAVLink 2 as soon as the autopilot's first frame is a v2 one. Forcing v2 would leave an old
-v1-only firmware (like the APM2-era build in the thesis, seed §4.1) unable to parse us.
+v1-only firmware (like the original SPAB boat's APM2-era build) unable to parse us.
 """
 
 from __future__ import annotations
@@ -348,7 +348,7 @@ class MavlinkLink:
 
     def arm(self, timeout: float, stop: threading.Event | None = None) -> tuple[bool, str]:
         """Arm, retrying while pre-arm checks fail, until ``timeout`` (ArduPilot's checks can
-        take tens of seconds after a cold start, mission-files.md)."""
+        take tens of seconds after a cold start, docs/edge-client.md#commands)."""
         deadline = time.monotonic() + timeout
         last = ""
         while True:

@@ -5,9 +5,9 @@ References:
   MISSION_ITEM_INT(seq) ... → MISSION_ACK; download: MISSION_REQUEST_LIST → MISSION_COUNT →
   MISSION_REQUEST_INT / MISSION_ITEM_INT ... → MISSION_ACK. Timeouts 1500 ms (exchange) and
   250 ms (per item when we request), at most 5 retries.
-- ../shared/formats/mission-files.md — ArduPilot specifics: item 0 is home (prepend on upload,
-  drop on download); Rover asks for items with the older MISSION_REQUEST, which we answer with
-  MISSION_ITEM_INT just the same.
+- docs/missions.md, 'The MAVLink mission protocol' — ArduPilot specifics: item 0 is home
+  (prepend on upload, drop on download); Rover asks for items with the older MISSION_REQUEST,
+  which we answer with MISSION_ITEM_INT just the same.
 
 The link layer (:mod:`edge_client.mavlink_link`) feeds received messages as ``(type, fields)``
 and sends what the machine returns as :class:`Out` values; tests drive the machines directly
@@ -60,7 +60,7 @@ ITEM_TIMEOUT_S = 0.25  # per-item timeout when we are the side requesting items
 MAX_RETRIES = 5
 # ArduPilot DO_JUMP: a repeat count of -1 repeats forever (used for looping missions).
 JUMP_FOREVER = -1
-# Item 1 is the first real item: ArduPilot keeps home as item 0 (mission-files.md).
+# Item 1 is the first real item: ArduPilot keeps home as item 0 (docs/missions.md).
 FIRST_ITEM = 1
 # ArduPilot keeps a waypoint's hold time in whole seconds (AP_Mission stores NAV_WAYPOINT
 # param1 in the 16-bit ``p1``), and Rover reads it as signed: ``(int16_t)cmd.p1 < 0 ? 0``

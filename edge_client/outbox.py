@@ -1,7 +1,7 @@
 """Store-and-forward outbox on disk (sqlite3 from the standard library).
 
 Every fix and every command ack is written here *before* any attempt to send it, and leaves only
-when the server has answered for it (DESIGN §6). Properties this module is responsible for:
+when the server has answered for it (docs/edge-client.md). This module is responsible for:
 
 - Order: items go out oldest first (``id`` is an AUTOINCREMENT rowid, never reused).
 - Bounded: at most ``max_fixes`` fixes; adding one more evicts the oldest, and the number evicted
@@ -27,7 +27,7 @@ when the server has answered for it (DESIGN §6). Properties this module is resp
   sent again (the server counts it a duplicate). Every change is one transaction, so a
   process killed mid-write leaves the previous committed state (tested by SIGKILL mid-insert).
 - Command dedupe: the ``commands`` table remembers every command uid the executor has started,
-  so a command re-offered after a restart is not run again (the thesis' client re-ran a
+  so a command re-offered after a restart is not run again (the original SPAB client re-ran a
   ``moveTo`` on every poll).
 
 The pure decision "which outbox rows may leave after this server answer" is
@@ -91,7 +91,7 @@ class Settlement:
 def settle_fix_batch(ids: Sequence[int], answer: Any) -> Settlement:
     """Decide which fixes of a batch leave the outbox after a 200 from ``POST boat/telemetry/``.
 
-    The answer is the contract's batch answer (``edge_client.contract.batch``, DESIGN §5):
+    The answer is the contract's batch answer (``edge_client.contract.batch``, docs/api.md):
     ``{"accepted": n, "duplicates": n, "rejected": [{"index": i, "errors": ...}]}``. Accepted
     and duplicate fixes are on the server; a rejected one never will be, so it is dropped too
     (after logging). If the answer does not account for every fix in the

@@ -1,6 +1,6 @@
 """Vehicle state kept from MAVLink messages, one handler per message type.
 
-As in the thesis' Mavlink manager (seed §4.3), each message type the client cares about has a
+As in the original SPAB client's Mavlink manager, each message type the client cares about has a
 handler registered with the link; adding a sensor means registering one more handler (or
 naming a ``[readings.*]`` source in the config). Handlers run on the link's reader thread and
 only assign attributes, so readers on other threads see whole values (plain attribute writes
@@ -253,7 +253,7 @@ class VehicleState:
         A position older than ``silent_after_s`` is not reported again under a new time: a
         silent autopilot shows on the server as a vessel gone quiet, not one sitting still.
 
-        ``time`` is Unix seconds rounded to the millisecond (DESIGN §5 accepts either that or
+        ``time`` is Unix seconds rounded to the millisecond (docs/api.md accepts either that or
         ISO 8601; this is half the bytes). The server dedupes on (vessel, time), and the same
         number always maps to the same instant, so a re-sent fix is a harmless duplicate.
         """

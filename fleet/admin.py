@@ -1,4 +1,4 @@
-"""Admin pages that join several apps, assembled at the top of the stack (DESIGN §2).
+"""Admin pages that join several apps, assembled at the top of the stack (docs/architecture.md).
 
 The vessel page gains its recent fixes and commands, the mission list its "send to vessel"
 action; the apps' own admins stay within their app and never import the apps above them.

@@ -6,7 +6,7 @@ from django.apps import AppConfig, apps
 from django.utils.module_loading import module_has_submodule
 
 # django-leaflet's admin module imports GeoDjango, which needs GDAL, which this project does
-# without (DESIGN §3); the maps need the app for its template tags and assets, so admin
+# without (docs/architecture.md); the maps need the app for its template tags and assets, so admin
 # autodiscovery (which would import it) is off (SimpleAdminConfig) and done here without it.
 # knox's admin is for its own token model, swapped out for operators.OperatorToken.
 NO_ADMIN_DISCOVERY = frozenset({"leaflet", "knox"})

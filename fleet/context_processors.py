@@ -13,7 +13,7 @@ def maps(request: HttpRequest) -> dict[str, Any]:
     leaflet = getattr(settings, "LEAFLET_CONFIG", {})
     return {
         "map_config": {
-            # Empty: no tile layer (DESIGN: the site works at sea, with no tile server).
+            # Empty: no tile layer (docs/operating.md: the site works at sea, with no tile server).
             "tiles_url": settings.MAP_TILES_URL or "",
             "attribution": settings.MAP_TILES_ATTRIBUTION,
             "center": list(leaflet.get("DEFAULT_CENTER", (0.0, 0.0))),

@@ -263,7 +263,7 @@ LOGIN_URL = "admin:login"
 
 # Production transport security; DEBUG/local development keeps plain HTTP usable.
 SECURE_SSL_REDIRECT = env_bool("SECURE_SSL_REDIRECT", PRODUCTION)
-# The thesis' F2414 modem speaks plain TCP only and cannot follow a redirect to HTTPS: the
+# The original SPAB F2414 modem speaks plain TCP only and cannot follow a redirect to HTTPS: the
 # legacy SPAB endpoints stay reachable over HTTP unless LEGACY_PLAIN_HTTP=0.
 SECURE_REDIRECT_EXEMPT = [r"^spab/"] if env_bool("LEGACY_PLAIN_HTTP", True) else []
 SESSION_COOKIE_SECURE = env_bool("SESSION_COOKIE_SECURE", PRODUCTION)

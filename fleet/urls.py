@@ -31,7 +31,7 @@ api_v1 = [
 urlpatterns = [
     path("admin/", admin.site.urls),
     path("api/v1/", include(api_v1)),
-    # The thesis' SPAB endpoints, by the paths its client was built with (DESIGN §5).
+    # The original SPAB endpoints, by the paths its client was built with (docs/api.md).
     path("spab/", include(telemetry_urls.legacy_urlpatterns)),
     path("spab/", include(command_urls.legacy_urlpatterns)),
     path("", include("fleet.pages")),

@@ -140,7 +140,7 @@ class SmsMessageAdmin(admin.ModelAdmin):
         return False
 
     def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
-        return False  # the log stays (DESIGN §3)
+        return False  # the log stays (docs/sms.md#the-sms-log)
 
     @admin.display(description="time", ordering="-created_at")
     def when(self, message: SmsMessage) -> SafeString:

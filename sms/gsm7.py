@@ -3,7 +3,7 @@
 Pure, stdlib only. Used on both sides of the modem: replies are built to fit one SMS of 160
 septets (``septets``, ``to_gsm7``), and with ``AT+CSCS="GSM"`` a modem in text mode exchanges
 text as one byte per septet (``encode``/``decode``), where ``@`` is 0x00 and ``_`` 0x11, not
-ASCII. Reference: ../shared/protocols/gsm-sms-at.md (Sending).
+ASCII. Reference: docs/sms.md#the-gsm-modem-smsmodem (Sending).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """The SMS command language of the Wave Glider: texts in, parsed items and one-SMS replies out.
 
-References: thesis §9.4 (the SMS parser composes replies from the same objects it parses),
-§10.1 Table 3 (the words), §11 Table 4 (``#HOLDWP 1`` taken as ``#HOLD``; the reply to
-``#FSEQ 1 1 4`` came back as ``#FSEQ 1 1``); DESIGN §4 (the catalog is the one rule set);
+References: docs/sms.md#the-language (the words); replies are composed from the parsed objects,
+as in the original glider software, whose field trials took ``#HOLDWP 1`` as ``#HOLD`` (the reply
+to ``#FSEQ 1 1 4`` came back as ``#FSEQ 1 1``); the command catalog is the one rule set;
 3GPP TS 23.038 through ``sms.gsm7`` (one SMS is 160 septets).
 
 Pure: no Django, no I/O. The command words, parameters and ranges are the command catalog's
@@ -494,7 +494,7 @@ _PLAIN = re.compile(r"[A-Za-z0-9 !\"#$%&'()*+,\-./:;<=>?@_]*")
 
 # A text-mode modem takes a reply as bytes typed after its "> " prompt, where ESC (before every
 # extension-table character) cancels and Ctrl-Z (0x1A, which is Ξ) sends: sms/modem refuses
-# both (../shared/protocols/gsm-sms-at.md, Sending), so replies spell them plainly.
+# both (docs/sms.md, 'The GSM modem'), so replies spell them plainly.
 _TYPEABLE = str.maketrans({"[": "(", "]": ")", "{": "(", "}": ")", "~": "-", "|": "/",
                            "\\": "/", "^": "'", "€": "EUR", "\f": " ", "Ξ": "?"})  # fmt: skip
 

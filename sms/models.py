@@ -1,4 +1,4 @@
-"""Authorised phone numbers and the log of every SMS in and out (DESIGN §3)."""
+"""Authorised phone numbers and the log of every SMS in and out (docs/sms.md)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,8 @@
 """Replies that say what really happened: a command's outcome as an SMS reply shows it.
 
 References: issue 11 §3 (``#FHEAD 230 OK``, ``#FHEAD 230 FAILED invalid data``; ``QUEUED`` when
-the reply window passes, then one more SMS when the command ends); DESIGN §7 (a NAK goes back
-to the sender, never silently); ``sms.bridge.commands`` (the reason of a failed command: its
+the reply window passes, then one more SMS when the command ends); docs/wave-glider.md (a NAK goes
+back to the sender, never silently); ``sms.bridge.commands`` (the reason of a failed command: its
 failed event's ``cc_reason``, the NAK code's meaning or the inner command table's refusal, as
 the bridge recorded it; else the command's result_detail as written, e.g. ``no answer from the
 C&C box``).

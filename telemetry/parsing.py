@@ -1,8 +1,8 @@
 """Normalise one telemetry record into a FixData, or say what is wrong with it. Pure.
 
-Two wire shapes (DESIGN §5): the v1 boat API (`time`, `lat`, `lon`, optional `heading_deg`,
-`speed_mps`, `battery_v`, `readings`) and the thesis' legacy SPAB shape (`timestamp`, `latitude`,
-`longitude` and any other numeric keys as readings; thesis Listing 1).
+Two wire shapes (docs/api.md): the v1 boat API (`time`, `lat`, `lon`, optional `heading_deg`,
+`speed_mps`, `battery_v`, `readings`) and the original, legacy SPAB shape (`timestamp`, `latitude`,
+`longitude` and any other numeric keys as readings; docs/api.md#legacy-spab-endpoints).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from vessels.clock import check_plausible
 from vessels.text import unstorable
 
 UTC = dt.UTC
-# The old Shoreside server counted time in units of 10 µs since 2015-01-01 (DESIGN §5).
+# The old Shoreside server counted time in units of 10 µs since 2015-01-01 (docs/api.md).
 LEGACY_EPOCH = dt.datetime(2015, 1, 1, tzinfo=UTC)
 LEGACY_TICKS_PER_S = 100_000
 # v1's fields, ranges and readings limits are the boat–shore contract's.
@@ -231,7 +231,7 @@ def _from_legacy_ticks(value: float) -> dt.datetime:
 def parse_legacy_fix(
     record: Any, *, now: dt.datetime, index: int = 0, max_future_s: float = 300
 ) -> FixData:
-    """Validate one thesis-style record (Listing 1).
+    """Validate one legacy SPAB record (docs/api.md#legacy-spab-endpoints).
 
     A timestamp in neither known unit (e.g. the old client's milliseconds since boot) gets the
     receive time, offset by ``index`` microseconds so fixes of one batch stay distinct, and the

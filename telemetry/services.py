@@ -254,7 +254,7 @@ def _advance_last_fix(vessel: Vessel, new: list[FixData], now: dt.datetime) -> N
 
 
 def fix_summary(fix: FixData | Fix) -> dict[str, Any]:
-    """A fix as the boat API takes it (DESIGN §5): the copy kept on Vessel.last_fix, and what
+    """A fix as the boat API takes it (docs/api.md): the copy kept on Vessel.last_fix, and what
     the glider's shore link posts to ``boat/telemetry/``."""
     summary: dict[str, Any] = {
         "time": fix.recorded_at.isoformat(),

@@ -1,4 +1,4 @@
-"""What the API tests share: endpoint paths, request helpers and the thesis' sample records."""
+"""What the API tests share: endpoint paths, request helpers, the SPAB client's sample records."""
 
 from __future__ import annotations
 
@@ -70,7 +70,7 @@ def cancel_url(uid: object) -> str:
 DATA = "/spab/data.cgi"
 LEGACY_COMMANDS = "/spab/requestCommands.cgi"
 
-# Listing 1 ("Logging JSON"), as real JSON with the same keys and values.
+# The SPAB client's logging record (docs/api.md), as real JSON with the same keys and values.
 LISTING_1 = [
     {
         "timestamp": 1536551550,

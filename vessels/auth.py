@@ -70,7 +70,7 @@ class VesselKeyAuthentication(BaseAuthentication):
 
 class LegacyKeyAuthentication(VesselKeyAuthentication):
     """The legacy SPAB endpoints also take HTTP Basic (user = slug, password = key), an
-    `Api-Key` header, or `?key=` (the F2414 modem could not do Basic auth; thesis §6.2)."""
+    `Api-Key` header, or `?key=` (the F2414 modem could not do Basic auth; docs/api.md)."""
 
     def authenticate(self, request: Request) -> tuple[BoatPrincipal, VesselKey] | None:
         found = super().authenticate(request)
@@ -113,5 +113,5 @@ class VesselKeyScheme(OpenApiAuthenticationExtension):
             "type": "apiKey",
             "in": "header",
             "name": "Authorization",
-            "description": "A vessel key: `Api-Key <key>` (DESIGN §5).",
+            "description": "A vessel key: `Api-Key <key>`.",
         }

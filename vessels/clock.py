@@ -6,7 +6,7 @@ from __future__ import annotations
 import datetime as dt
 
 UTC = dt.UTC
-# No vessel of this fleet reported before the original SPAB system existed (thesis, 2018).
+# No vessel of this fleet reported before the original SPAB system existed (2018).
 PLAUSIBLE_FROM = dt.datetime(2018, 1, 1, tzinfo=UTC)
 
 

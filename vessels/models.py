@@ -19,7 +19,7 @@ from vessels.missions import (
     SPEED_MIN_MPS,
 )
 
-# A vessel silent for this many telemetry periods is overdue (DESIGN §3).
+# A vessel silent for this many telemetry periods is overdue (docs/operating.md#the-admin).
 OVERDUE_PERIODS = 3
 # Half the Earth's circumference: no two points are farther apart, so no limit needs more.
 MOVE_TO_MAX_LIMIT_M = 20_038_000

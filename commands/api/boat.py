@@ -1,4 +1,4 @@
-"""Commands out to boats, acks in (DESIGN §5): v1 poll and ack, and the report of commands a
+"""Commands out to boats, acks in (docs/api.md): v1 poll and ack, and the report of commands a
 vessel created itself (a glider's SMS commands). Thin: services do the work.
 
 The wire shapes are a contract with boats in the field, so these are explicit APIViews that

@@ -1,4 +1,4 @@
-"""The thesis' `GET /spab/requestCommands.cgi` (DESIGN §5 "Legacy SPAB wire format"): Listing 2,
+"""The original SPAB client's `GET /spab/requestCommands.cgi` (docs/api.md#legacy-spab-endpoints),
 with the command uid as a stable `taskId`, on the same services as the v1 poll."""
 
 from __future__ import annotations

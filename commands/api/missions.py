@@ -1,7 +1,7 @@
 """`POST /api/v1/missions/<id>/send/`: queue a mission as a `mission` command.
 
 Here, not beside the mission API in vessels: it writes a command, and vessels sits below
-commands (DESIGN §2). The checks are the ones every mission command passes
+commands (docs/architecture.md). The checks are the ones every mission command passes
 (commands.services.command_validate: the catalog, then the route with MISSION_MAX_LEG_M).
 """
 

@@ -163,7 +163,7 @@ LEGACY_DELIVERY_NOTE = "delivered to a legacy SPAB client; the old protocol has 
 
 
 def command_deliver_legacy(*, vessel: Vessel, now: dt.datetime | None = None) -> list[Command]:
-    """Hand the open move_to/hold commands to a thesis-era client (GET requestCommands.cgi).
+    """Hand the open move_to/hold commands to an original SPAB client (GET requestCommands.cgi).
 
     The old protocol has no acknowledgement, so delivery counts as one: otherwise the old
     client would be handed (and would re-run) the same waypoint on every poll forever.

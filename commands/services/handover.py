@@ -48,7 +48,7 @@ def command_fail_unsent(
 ) -> bool:
     """Fail a queued command its transport refuses to send, with the reason; False if it moved.
 
-    The lifecycle (DESIGN §4) has no queued → failed, so the command passes through sent in
+    The lifecycle (docs/api.md) has no queued → failed, so the command passes through sent in
     this one transaction: nobody outside ever sees it sent, and the sent event says that
     nothing was handed over. ``cc_reason`` (the failed event's) is the refusal as a reply
     says it.

@@ -1,4 +1,4 @@
-"""The answer to a boat's batch upload (fixes, command reports, the SMS log), DESIGN §5:
+"""The answer to a boat's batch upload (fixes, command reports, the SMS log), docs/api.md:
 ``{"accepted": n, "duplicates": n, "rejected": [{"index": i, "errors": {...}}]}``.
 
 The server builds it with :class:`BatchAnswer`; the boat settles its outbox by it

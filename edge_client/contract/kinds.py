@@ -1,4 +1,4 @@
-"""Vessel kinds (DESIGN §3) and ArduPilot Rover's modes, shared by the server and the boat."""
+"""Vessel kinds and ArduPilot Rover's modes, shared by server and boat (docs/architecture.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Command status names (DESIGN §4), as the boat API, the SMS replies and the pages say them.
+"""Command status names (docs/api.md), as the boat API, the SMS replies and the pages say them.
 
 The legal transitions between them are the server's rule (``commands/lifecycle.py``); the
 names, and which of them are final, are the contract both sides and the page scripts share.

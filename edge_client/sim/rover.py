@@ -1,7 +1,7 @@
 """An ArduPilot-Rover-like MAVLink vehicle for tests and demos, on pymavlink.
 
-It behaves like ArduPilot Rover where the edge client depends on it (../shared/formats/
-mission-files.md, mavlink.io common.xml), not like a physics model:
+It behaves like ArduPilot Rover where the edge client depends on it (docs/missions.md,
+docs/edge-client.md#commands, mavlink.io common.xml), not like a physics model:
 
 - HEARTBEAT (MAV_TYPE_SURFACE_BOAT, MAV_AUTOPILOT_ARDUPILOTMEGA, SAFETY_ARMED flag, Rover
   custom mode), GLOBAL_POSITION_INT at the stream rate, SYS_STATUS (battery), MISSION_CURRENT,

@@ -1,4 +1,4 @@
-"""The Four-Faith F2414 3G modem as a transport (seed §2.1, §6.1).
+"""The Four-Faith F2414 3G modem as a transport (docs/edge-client.md#transports).
 
 The modem is configured in TELNET + data-trigger mode: it idles until it sees the bytes ``don`` on
 its serial port, then opens a TCP connection to the configured server and passes bytes through
@@ -8,7 +8,7 @@ with ``Connection: close``). So one request is:
 1. drop whatever is left in the input buffer from an earlier exchange;
 2. write the trigger, give the modem ``connect_delay_s`` to dial;
 3. write a complete HTTP/1.1 request (:func:`~edge_client.httpwire.build_request`) carrying the
-   vessel key in ``Authorization: Api-Key`` (Basic auth never worked through it, seed §6.2);
+   vessel key in ``Authorization: Api-Key`` (Basic auth never worked through it);
 4. feed what comes back to :class:`~edge_client.httpwire.ResponseParser` until it is complete,
    the line goes quiet after data (the server closed: a serial port has no EOF), or the timeout.
 

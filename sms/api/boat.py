@@ -1,4 +1,4 @@
-"""The glider's shore link on the shore side (issue 11 §6, DESIGN §5 and §7).
+"""The glider's shore link on the shore side (issue 11 §6, docs/wave-glider.md).
 
 - ``GET /api/v1/boat/numbers/``: the numbers that may address the caller's vessel, with an
   ETag (``If-None-Match`` → 304: the glider syncs over 3G or satellite). The shore admin is

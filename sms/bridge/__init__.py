@@ -1,4 +1,4 @@
-"""Building blocks of the Wave Glider bridge (DESIGN §7; issue 11), one job per module.
+"""Building blocks of the Wave Glider bridge (docs/wave-glider.md; issue 11), one job per module.
 
 * ``commands``: the database as the payload machine's command source (one handover at a time,
   results matched in order, timeouts, crash-safe retries);

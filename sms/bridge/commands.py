@@ -1,9 +1,9 @@
 """The database as the payload machine's command source (``sms.level2.payload.CommandSource``).
 
-References: ../shared/protocols/level2.md §8.4 (the status flag), §8.5 (request queued and its
+References (docs/level2.md, its § table): §8.4 (the status flag), §8.5 (request queued and its
 reply), §8.6 (the C&C's ACK/NAK queued message: a code and no reference to the command), §10
-(the C&C resends a request with the same tid ~2 s apart, 3 attempts); DESIGN §4 (lifecycle),
-§7 (the bridge); issue 11 §2.
+(the C&C resends a request with the same tid ~2 s apart, 3 attempts); docs/api.md (lifecycle),
+docs/wave-glider.md (the bridge); issue 11 §2.
 
 The vessel's queued commands go to the C&C oldest first, whatever created them (SMS, admin,
 API). Every step is a conditional UPDATE through ``commands.services`` and leaves a

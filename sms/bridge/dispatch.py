@@ -1,6 +1,6 @@
 """The payload machine's notifications, routed to the bridge's building blocks.
 
-References: ``sms.level2.payload`` (the notifications), ../shared/protocols/level2.md §8.1
+References: ``sms.level2.payload`` (the notifications), docs/level2.md (its § table): §8.1
 (enumerate: a restarted C&C), §8.3 (fixes), §8.6 (results), §8.8 (power notices).
 
 A :class:`Dispatcher` is the ``on_notification`` callback of ``sms.level2.runner.PayloadRunner``:

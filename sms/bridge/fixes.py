@@ -1,8 +1,8 @@
 """The glider's fixes: the time and position in the C&C's status requests, stored as the vessel's
 fixes through ``telemetry.services.fix_ingest``.
 
-References: ../shared/protocols/level2.md §8.3 (the status request: UTC time, position, 'Y' when
-valid), §10 (a retry repeats the request); DESIGN §3 (Fix: unique on vessel + recorded_at),
+References (docs/level2.md, its § table): §8.3 (the status request: UTC time, position, 'Y' when
+valid), §10 (a retry repeats the request); a Fix is unique on vessel + recorded_at;
 issue 11 §4 ("one per distinct C&C time, not one per retry").
 
 * The C&C's time is the fix's time, so a retry (or a new poll with a GPS time that has not moved)

@@ -1,7 +1,7 @@
 """The payload machine as the bridge runs it: it tells its command source which request it is
 answering, and keeps the last power notice frame for the log.
 
-References: ../shared/protocols/level2.md §8.5 (request queued), §8.8 (power notices), §10 (a
+References (docs/level2.md, its § table): §8.5 (request queued), §8.8 (power notices), §10 (a
 retry repeats the tid). ``CommandSource.take_next()`` takes no arguments, but a crash-safe
 source must know the request's tid to answer a retry after a restart identically
 (``sms.bridge.commands``); this subclass hands it over before the machine runs. Pure: no I/O.

@@ -1,9 +1,9 @@
 """What a power-down notice from the C&C runs.
 
-References: ../shared/protocols/level2.md §8.8 (power 0x0030: a broadcast the payload only
+References (docs/level2.md, its § table): §8.8 (power 0x0030: a broadcast the payload only
 listens to; its layout is unknown, so ``PayloadConfig.is_power_down`` decides which notices mean
-power down), thesis §9.3 (the manager notifies "the RPi operating system of power down
-messages"), DESIGN §7 ("a shutdown notice runs a configured command"), issue 11 §5.
+power down); the original glider payload software passed power-down messages on to the Pi;
+docs/wave-glider.md#power-down-notices (a shutdown notice runs a configured command), issue 11 §5.
 
 :func:`handle_power_down`: 1. log the notice with the frame in hex; 2. flush what must be kept
 (the pending fixes, command results), each step on its own so one failing does not stop the

@@ -1,12 +1,12 @@
 """The Wave Glider bridge as one long-running process (``manage.py run_wg_bridge``).
 
-References: DESIGN §7; issue 11 §1; STYLE.md §6 (healthchecks ``sendalerts``: a thin loop of
+References: docs/wave-glider.md; issue 11 §1; healthchecks' ``sendalerts`` (a thin loop of
 small ``do_one_<thing>()`` steps, signals that only set a flag, ``close_old_connections()``, a
-failing item logged and pushed aside) and §12 (nobodd: configuration parsed once into a frozen
-dataclass with clear ``ValueError``s, systemd notify); thesis §9, Figure 10.
+failing item logged and pushed aside) and nobodd (configuration parsed once into a frozen
+dataclass with clear ``ValueError``s, systemd notify).
 
 Threads, so that nothing slow ever delays a Level 2 reply (the C&C retries after ~2 s; the real
-board answered in 4–17 ms, level2.md §2, §10):
+board answered in 4–17 ms; §2, §10 of docs/level2.md):
 
 * ``level2``: :class:`~sms.level2.runner.PayloadRunner`, the only code on the Level 2 port; it
   reopens the port when it goes away. Its notifications go to the :class:`Dispatcher`.
@@ -62,7 +62,7 @@ from .sms_link import POLL_S, SmsLink
 
 log = logging.getLogger(__name__)
 
-POLL_PERIOD_S = 20  # what the payload declares at enumeration (level2.md §8.2: the real PIB's)
+POLL_PERIOD_S = 20  # declared at enumeration (§8.2, docs/level2.md: the real PIB's)
 # The reply window's margin over one poll period: the request queued comes ~0.4 s after the
 # flagged status reply and the C&C answered at once (§8.6, §9); the rest is for a retry (§10).
 REPLY_MARGIN_S = 10.0

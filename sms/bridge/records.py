@@ -1,10 +1,10 @@
 """The payload board's UDP data records → readings, through a record-layout table. Pure.
 
-References: thesis §9 ("The payload board provides a number of UDP servers for each of the various
-types of data it produces"), §9.2 (the sensor manager decodes "a binary structure containing the
-most recent sensor readings"); ../shared/protocols/level2.md §8.4 (the status block the readings
+References: docs/wave-glider.md#sensors (the payload board has a UDP data server for each
+type of data it produces; the sensor manager decodes their binary records of the
+most recent sensor readings); §8.4 of docs/level2.md (the status block the readings
 feed: leak 1/2, humidity sensor temperature and humidity, pressure sensor temperature and
-pressure); DESIGN §7.
+pressure).
 
 The layouts are the board's own and are not public, so they are data (``sensor_layouts.toml``),
 like the inner command table: each record type names its UDP port, an optional header (fixed

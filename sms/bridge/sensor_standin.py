@@ -1,8 +1,8 @@
 """A stand-in for the payload board's UDP data servers, for tests and demos.
 
-References: thesis §9: "Subscribing to these servers is simply done by sending a packet to the
+References: docs/wave-glider.md#sensors. A data server is subscribed to by sending a packet to the
 relevant port number on the payload board. The payload board will send data using UDP to
-whichever IP address last contacted it." Each :class:`RecordServer` does exactly that for one
+whichever IP address last contacted it. Each :class:`RecordServer` does exactly that for one
 record type of ``sensor_layouts.toml``: any datagram makes its sender the subscriber (replacing
 the previous one), and the record goes to that address every ``period_s``.
 
@@ -90,7 +90,7 @@ class RecordServer:
                         pass  # the subscriber went away; it will subscribe again
 
 
-# The readings of the real PIB's status block (level2.md §8.4, captured): the demo's centre.
+# The readings of the real PIB's status block (§8.4 of docs/level2.md, captured): the demo's centre.
 CAPTURED = {
     "humidity_temp_c": 21.0,
     "humidity_pct": 35.0,

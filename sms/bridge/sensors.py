@@ -1,10 +1,10 @@
 """The sensor manager's I/O: subscribe to the payload board's UDP data servers, decode what they
 send, keep the latest readings.
 
-References: thesis §9 ("Subscribing to these servers is simply done by sending a packet to the
+References: docs/wave-glider.md#sensors (a data server is subscribed to by sending a packet to the
 relevant port number on the payload board. The payload board will send data using UDP to
-whichever IP address last contacted it"), §9.1 (one model of the glider's state), §9.2 (the
-sensor manager; its readings answer the C&C's status requests); level2.md §8.4 (the status
+whichever IP address last contacted it; one model of the glider's state; the sensor
+manager's readings answer the C&C's status requests); §8.4 of docs/level2.md (the status
 block). Decoding is ``sms.bridge.records`` (pure); this module owns the sockets. No Django.
 
 * :class:`LatestReadings`: the newest value of each reading (for fixes and, later, ``#STATUS``)

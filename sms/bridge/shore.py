@@ -1,4 +1,4 @@
-"""The glider's link to a shore Shoreside (issue 11 §6, DESIGN §5 and §7).
+"""The glider's link to a shore Shoreside (issue 11 §6, docs/wave-glider.md).
 
 On the glider the bridge runs with a local database: the glider is its own little Shoreside.
 When an upstream URL and a vessel key are configured it is also a vessel of a shore Shoreside,

@@ -1,7 +1,7 @@
 """The bridge's modem side: SMS in through the SMS service, replies out, in its own thread.
 
-References: issue 11 §1 and §3; DESIGN §7; ../shared/protocols/gsm-sms-at.md ("What a robust
-driver does"); ``sms.modem.driver`` (THE DELETE CONTRACT: a message is deleted only after
+References: issue 11 §1 and §3; docs/wave-glider.md; docs/sms.md, 'The GSM modem' (what a robust
+driver does); ``sms.modem.driver`` (THE DELETE CONTRACT: a message is deleted only after
 ``sms_handle_incoming`` committed it; the service is idempotent on the modem's time stamp, so a
 message seen again after a crash is handled once).
 

@@ -1,6 +1,6 @@
 """Wave Glider "Level 2" payload serial protocol: codec, framing, payload machine, simulator.
 
-Protocol facts and open questions: ../shared/protocols/level2.md. Layers (STYLE.md §7):
+Protocol facts and open questions: docs/level2.md. Layers (docs/architecture.md#layering):
 ``codec`` (frames, CRC, escaping), ``bodies`` (typed bodies, with ``enumeration`` and
 ``fields``, the coordinates, split from it), ``framing`` (incremental decoder), ``inner`` +
 ``inner_commands.toml`` (the inner command table), ``payload`` (the payload state machine),

@@ -1,6 +1,6 @@
 """Typed Level 2 bodies. Pure, no I/O.
 
-References (../shared/protocols/level2.md):
+References (§ as in docs/level2.md#section-numbers-in-the-code):
 * §8.1 enumerate, §8.2 enumeration reply and the 42-byte device information block,
 * §8.3 request status (6-byte time, lat/lon as minutes × 10⁴, fix flag),
 * §8.4 status reply and the 12-byte status block (bit 15 of ``version`` = queued message),

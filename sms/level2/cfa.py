@@ -1,6 +1,6 @@
 """Read the logic-analyser captures (.cfa) of real Level 2 traffic. Pure: bytes in, streams out.
 
-Reference: ../shared/protocols/level2.md Appendix B and captures/README.md: records are a channel
+Reference: tests/sms/level2/data/README.md (the captures): records are a channel
 byte (0x09 payload→C&C, 0x0A C&C→payload), one data byte, a timestamp byte count n (4 or 5) and
 an n-byte little-endian timestamp in 100 ns ticks; other record kinds can be skipped.
 

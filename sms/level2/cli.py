@@ -1,6 +1,6 @@
 """Command line: ``python -m sms.level2 decode | payload | cc`` (no Django needed).
 
-References: ../shared/protocols/level2.md §16 (codec, payload, simulator duties); issue 4 §6.
+References: docs/level2.md#the-library-smslevel2 (codec, payload, simulator duties); issue 4 §6.
 
 * ``decode [FILE] [--hex] [--cfa]``: one line per frame found in a raw byte stream (hex text with
   ``--hex``; a logic-analyser capture with ``--cfa``), then good/bad/dropped counts.

@@ -1,6 +1,6 @@
 """Level 2 frame codec: checksum, escaping, header, message types. Pure, no I/O.
 
-References (../shared/protocols/level2.md):
+References (§ as in docs/level2.md#section-numbers-in-the-code):
 * §3 CRC-16/ARC, appended little-endian, residue 0 over the frame after the SOF;
 * §4 SOF 0x7E, escaping of 0x7E/0x7D after the SOF, the length field;
 * §5 the 11-byte header, bit 15 of the message type meaning "no ACK requested";
@@ -35,7 +35,7 @@ _HEADER = struct.Struct("<BHBBBBHH")
 
 
 def _make_crc_table() -> tuple[int, ...]:
-    """256-entry table for the reflected CRC-16/ARC polynomial 0xA001 (level2.md §3)."""
+    """256-entry table for the reflected CRC-16/ARC polynomial 0xA001 (§3, docs/level2.md)."""
     table = []
     for byte in range(256):
         crc = byte
@@ -49,7 +49,7 @@ _CRC_TABLE = _make_crc_table()
 
 
 def crc16_arc(data: bytes, crc: int = 0) -> int:
-    """CRC-16/ARC of ``data`` (poly 0x8005 reflected, init 0, xorout 0; level2.md §3).
+    """CRC-16/ARC of ``data`` (poly 0x8005 reflected, init 0, xorout 0; §3, docs/level2.md).
 
     Check value: ``crc16_arc(b"123456789") == 0xBB3D``. Not ``binascii.crc_hqx`` (XMODEM).
     """
@@ -91,7 +91,7 @@ def unescape(data: bytes) -> bytes:
 
 
 class MessageType(IntEnum):
-    """Message types, bits 0–14 of the type field (level2.md §7)."""
+    """Message types, bits 0–14 of the type field (§7, docs/level2.md)."""
 
     NAK = 0x0000
     ACK = 0x0001  # also "reply": the body starts with the original type
@@ -113,7 +113,7 @@ def type_name(msg_type: int) -> str:
 
 
 class Address(NamedTuple):
-    """A (task id, board id) pair (level2.md §6)."""
+    """A (task id, board id) pair (§6, docs/level2.md)."""
 
     task: int
     board: int
@@ -132,7 +132,7 @@ BROADCAST = Address(0xFF, 0xFF)  # §6: enumeration goes to FF/FF
 
 @dataclass(frozen=True, slots=True)
 class Frame:
-    """One Level 2 frame (level2.md §5). ``msg_type`` is bits 0–14; ``no_ack`` is bit 15.
+    """One Level 2 frame (§5, docs/level2.md). ``msg_type`` is bits 0–14; ``no_ack`` is bit 15.
 
     ``bytes(frame)`` gives the escaped wire bytes with SOF, length and CRC.
     """

@@ -1,5 +1,5 @@
 """Level 2 enumeration bodies (§8.1 enumerate, §8.2 its reply and the 42-byte device
-information block; ../shared/protocols/level2.md). Pure, no I/O; offered by :mod:`.bodies` too.
+information block; docs/level2.md). Pure, no I/O; offered by :mod:`.bodies` too.
 """
 
 from __future__ import annotations

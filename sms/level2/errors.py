@@ -1,6 +1,6 @@
-"""Errors of the Level 2 library (STYLE.md §8).
+"""Errors of the Level 2 library (docs/architecture.md#rules-that-hold-everywhere).
 
-References: ../shared/protocols/level2.md (§4 framing, §16 decoder rules).
+References: §4 (framing) and §16 (decoder rules) of docs/level2.md.
 
 The split follows wsproto/h11: ``LocalProtocolError`` means *we* were misused (a field out of
 range, a command the table refuses); ``RemoteProtocolError`` means *the peer* sent garbage (bad
@@ -36,7 +36,7 @@ class FrameError(RemoteProtocolError):
 
 
 class ChecksumError(FrameError):
-    """The CRC-16/ARC residue of a complete frame was not zero (level2.md §3).
+    """The CRC-16/ARC residue of a complete frame was not zero (§3, docs/level2.md).
 
     ``unescaped`` is the whole frame after unescaping (SOF included) so callers can still
     print its header.

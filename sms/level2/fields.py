@@ -1,5 +1,5 @@
 """Level 2 field helpers shared by the bodies: coordinates as minutes × 10⁴ (§8.3 of
-../shared/protocols/level2.md) and the checks every ``from_bytes`` makes. Pure, no I/O.
+docs/level2.md) and the checks every ``from_bytes`` makes. Pure, no I/O.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Incremental Level 2 frame decoder. Pure: bytes and times in, frames out; no clock, no port.
 
-References (../shared/protocols/level2.md):
+References (§ as in docs/level2.md#section-numbers-in-the-code):
 * §4 framing and escaping, §16 "Decoding must be an incremental state machine fed arbitrary
   chunks": hunt for 0x7E, unescape as bytes arrive (a 0x7D may end a chunk), read L after two
   unescaped bytes, reject L < 12 or L > 558, collect L bytes, check residue 0; a raw 0x7E

@@ -1,14 +1,14 @@
 """The inner ("Level 1") command table: command word → command value → parameter layout.
 
-References (../shared/protocols/level2.md): §11.1 the command packet and the public command
-values; §13–§14 the open questions, which are named settings in the data file; DESIGN.md §4 the
-Wave Glider command words and their parameter ranges; thesis §11 Table 4 (``#HOLDWP 1`` sent
+References (§ as in docs/level2.md#section-numbers-in-the-code): §11.1 the command packet and
+the public command values; §13–§14 the open questions, named settings in the data file; the
+Wave Glider words and ranges of docs/sms.md#the-language; the field trials (``#HOLDWP 1`` sent
 as ``#HOLD``, ``#FSEQ 1 1 4`` losing its last parameter), which the loader makes impossible by
 refusing any entry that does not encode every declared parameter.
 
 The table is data (``inner_commands.toml``) so that someone holding LRI's handbook can correct it
 without touching code. It holds only the wire layout: each word must be a Wave Glider kind of the
-command catalog (``commands/catalog.py``, DESIGN.md §4), which gives the parameters' ranges, so
+command catalog (``commands/catalog.py``), which gives the parameters' ranges, so
 the SMS parser, the admin and the encoder cannot disagree on them. Pure: the catalog is pure
 Python too (sms sits above commands; neither imports Django here), and the only file read is the
 table, through ``importlib.resources``.
@@ -49,7 +49,7 @@ _CATALOG_KEYS = {"min", "max", "min_count"}
 
 @dataclass(frozen=True, slots=True)
 class InnerSettings:
-    """The open questions of level2.md §13–§14 as named settings."""
+    """The open questions (§13–§14, docs/level2.md) as named settings."""
 
     inner_size_includes_crc: bool = False  # §13: PC 16 (no) vs Goby 18 (yes); page default: no
     wgms_id: int = 0  # §14 q2: 0 (PC) or 0xFFFFFFFF (Goby)
@@ -316,7 +316,7 @@ def _check_entry(spec: CommandSpec, fail: Any) -> None:
     encoded |= {p.name for p in spec.params if p.type in ("lat", "lon")}
     missing = {p.name for p in spec.params} - encoded
     if missing:
-        # The thesis' #FSEQ failure: a parameter that is accepted but never sent.
+        # The field trials' #FSEQ failure: a parameter that is accepted but never sent.
         raise fail(f"parameters {sorted(missing)} are declared but never encoded")
 
 

@@ -1,6 +1,6 @@
 """The payload side of Level 2 as a pure state machine: frames in, frames out.
 
-References (../shared/protocols/level2.md):
+References (§ as in docs/level2.md#section-numbers-in-the-code):
 * §8.1–§8.2 answer enumerate (also sent to broadcast FF/FF) with this payload's device block;
 * §8.3–§8.4 answer request status with the status block; bit 15 of ``version`` when a command
   waits; record the C&C's time and position (the glider's fix);

@@ -1,7 +1,7 @@
 """The only Level 2 module that does I/O: opens ports and moves bytes to and from the pure layers.
 
-References: ../shared/protocols/level2.md §2 (115200 baud 8N1, no flow control), §16 (inter-byte
-timeout for half frames); STYLE.md §7 and §10 (``serial.serial_for_url`` for real devices,
+References: §2 (115200 baud 8N1, no flow control) and §16 (inter-byte timeout for half frames)
+of docs/level2.md; ports open through ``serial.serial_for_url`` (real devices,
 ``socket://`` and ``loop://``; the read loop only moves bytes into the decoder).
 
 * :func:`open_port` opens a pyserial URL or device, or ``pty`` (a new pseudo-terminal pair whose

@@ -1,6 +1,6 @@
 """A C&C box simulator (the Level 2 master), with fault injection, for tests and demos.
 
-References (../shared/protocols/level2.md):
+References (§ as in docs/level2.md#section-numbers-in-the-code):
 * §9 the real sequence: enumerate to FF/FF, status polls at the declared period, request queued
   ~0.4 s after a flagged status reply, again ~0.25 s later while replies carry 0x8040;
 * §10 no valid reply: resend the same tid about 2 s later, 3 attempts in all, then wait for the

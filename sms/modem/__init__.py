@@ -1,6 +1,6 @@
 """GSM modem: the SMS AT dialogue in text mode, a driver and a simulator. No Django here.
 
-Protocol facts and quirks: ../shared/protocols/gsm-sms-at.md. Layers (STYLE.md §7): ``at``
+Protocol facts and quirks: docs/sms.md, 'The GSM modem'. Layers: ``at``
 (line reader, parsers, error codes) and ``errors`` are pure; ``driver`` is the only module that
 opens ports (pyserial ``serial_for_url``); ``simulator`` is a modem for tests and demos (pty or
 TCP); ``cli`` is ``python -m sms.modem``.

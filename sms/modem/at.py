@@ -1,6 +1,6 @@
 """The AT dialogue of an SMS modem in text mode, without I/O: a line reader and parsers.
 
-References: ../shared/protocols/gsm-sms-at.md (framing, set-up, receiving, sending, error codes);
+References: docs/sms.md, 'The GSM modem' (framing, set-up, receiving, sending, error codes);
 3GPP TS 27.005 §3 (+CMGR, +CMGL, +CMTI, +CMGS, +CPMS, +CMS ERROR codes §3.2.5) and TS 27.007
 §9.2 (+CME ERROR codes); ITU-T V.250 §5.7 (``<CR><LF>text<CR><LF>`` framing, final results).
 

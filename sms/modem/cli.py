@@ -1,6 +1,6 @@
 """Command line: ``python -m sms.modem sim | listen | send`` (no Django needed).
 
-References: ../shared/protocols/gsm-sms-at.md; issue 10 items 4 and 5.
+References: docs/sms.md, 'The GSM modem'; issue 10 items 4 and 5.
 
 * ``sim --port pty|tcp:PORT``: run the modem simulator; prints where the driver connects. Each
   line typed on stdin, ``<number> <text>`` (``+61400000001 #FHEAD 230``), arrives as an SMS;

@@ -1,7 +1,7 @@
 """The GSM modem driver: the only module here that opens ports (pyserial ``serial_for_url``).
 
-References: ../shared/protocols/gsm-sms-at.md ("Set-up", "Receiving", "Sending", "What a robust
-driver does"); 3GPP TS 27.005 §3.5.1 (+CMGS prompt, Ctrl-Z, ESC). STYLE.md §7 and §10: this
+References: docs/sms.md, 'The GSM modem' (set-up, receiving, sending, errors, what a robust
+driver does); 3GPP TS 27.005 §3.5.1 (+CMGS prompt, Ctrl-Z, ESC). The only port module: this
 module moves bytes between the port and :class:`~.at.AtReader`; all parsing lives in ``at.py``.
 
 THE DELETE CONTRACT. The SIM is the queue. A message is deleted from the modem
@@ -70,7 +70,7 @@ BAUDRATE = 115_200  # the usual default of Quectel/SIMCom USB and UART ports
 READ_TIMEOUT_S = 0.05  # one blocking read; bounds how late a deadline is noticed
 COMMAND_TIMEOUT_S = 5.0  # most commands answer in well under a second
 LIST_TIMEOUT_S = 20.0  # AT+CMGL of a full SIM (50 messages) on a slow module
-SEND_TIMEOUT_S = 60.0  # gsm-sms-at.md: +CMGS may take several seconds (network round trip)
+SEND_TIMEOUT_S = 60.0  # docs/sms.md: +CMGS may take several seconds (network round trip)
 WAKE_TIMEOUT_S = 1.0  # per "AT" while waking a modem; it may ignore commands after power-up
 WAKE_ATTEMPTS = 5
 SETTLE_S = 0.3  # quiet time that lets late answers to abandoned commands drain away
@@ -369,7 +369,7 @@ class Modem:
                 quiet_until = self.clock() + seconds
 
     def _setup(self) -> None:
-        """gsm-sms-at.md "Set-up", in that order."""
+        """The set-up of docs/sms.md ('The GSM modem'), in that order."""
         self._command("ATE0")
         self._command("AT+CMEE=1")
         answer = self._command("AT+CPIN?")

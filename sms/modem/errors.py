@@ -1,4 +1,4 @@
-"""Errors of the GSM modem package (STYLE.md §8). Pure: no serial, no Django.
+"""Errors of the GSM modem package (docs/architecture.md). Pure: no serial, no Django.
 
 One base, :class:`ModemError`, carries ``permanent``: a temporary error (network busy, a modem
 that stopped answering, a port that went away) is worth retrying later; a permanent one (SIM PIN

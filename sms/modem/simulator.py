@@ -1,6 +1,6 @@
 """A simulated GSM modem speaking the text-mode SMS AT dialogue, for tests and demos.
 
-References: ../shared/protocols/gsm-sms-at.md (the dialogue and its quirks); 3GPP TS 27.005.
+References: docs/sms.md, 'The GSM modem' (the dialogue and its quirks); 3GPP TS 27.005.
 
 :class:`SimulatedModem` is the modem itself and does no I/O: bytes in (:meth:`receive`), bytes
 out (:meth:`take_output`, each chunk with the time it is due, so slow answers need no sleeping

@@ -1,5 +1,5 @@
 """SMS writes: the one entry point for an incoming SMS, the outgoing queue the modem loop sends,
-and the authorised numbers (DESIGN §7: only active authorised numbers with the right role are
+and the authorised numbers (docs/sms.md: only active authorised numbers with the right role are
 answered; everything else is logged and not answered).
 
 One module per sub-domain: ``incoming`` (the handle path), ``replies`` (when and what is

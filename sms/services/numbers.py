@@ -1,4 +1,4 @@
-"""Phone numbers and the authorised numbers (DESIGN §7: only active authorised numbers with the
+"""Phone numbers and the authorised numbers (docs/sms.md: only active authorised numbers with the
 right role are answered; everything else is logged and not answered)."""
 
 from __future__ import annotations

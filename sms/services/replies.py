@@ -174,7 +174,7 @@ def _age(seconds: float) -> str:
 def _answer_status(
     vessel: Vessel, item: Item, now: dt.datetime, readings: Mapping[str, float] | None = None
 ) -> Answer:
-    """Position and its age, battery, navigation mode, pending commands (DESIGN §4), then the
+    """Position and its age, battery, navigation mode, pending commands (docs/sms.md), then the
     sensor readings: the live ones when given (the bridge's), else the last fix's."""
     fresh = Vessel.objects.only("last_fix", "last_fix_at", "kind").get(pk=vessel.pk)
     fix = fresh.last_fix or {}

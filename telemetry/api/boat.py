@@ -1,6 +1,6 @@
-"""Telemetry in from boats: v1 `POST /api/v1/boat/telemetry/` and the thesis' `data.cgi`.
+"""Telemetry in from boats: v1 `POST /api/v1/boat/telemetry/` and the legacy SPAB `data.cgi`.
 
-The wire shapes are a contract with boats in the field (DESIGN §5), so these are explicit
+The wire shapes are a contract with boats in the field (docs/api.md), so these are explicit
 APIViews that build their JSON by hand; :func:`telemetry.services.fix_ingest` does the work.
 """
 
@@ -78,7 +78,7 @@ class TelemetryView(BoatView):
 
 @extend_schema(exclude=True)
 class LegacyDataView(LegacyBoatView):
-    """`POST /spab/data.cgi`: Listing 1 records (one object or a list) → `telemAck`."""
+    """`POST /spab/data.cgi`: legacy SPAB records (one object or a list) → `telemAck`."""
 
     parser_classes = [LegacyTelemetryJSONParser]
 

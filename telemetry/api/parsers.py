@@ -1,4 +1,4 @@
-"""JSON for telemetry bodies, where one odd number must cost only its own fix (DESIGN §5).
+"""JSON for telemetry bodies, where one odd number must cost only its own fix (docs/api.md).
 
 Standard JSON has no NaN or Infinity, and Python refuses integers past 4,300 digits: DRF's
 strict parser turned either into a 400 for the whole batch. Here they parse as non-finite
@@ -39,7 +39,7 @@ class TelemetryJSONParser(JSONParser):
 
 
 class LegacyTelemetryJSONParser(TelemetryJSONParser):
-    """The thesis' CGI read the body as JSON whatever the Content-Type said (or if there was
+    """The original SPAB CGI read the body as JSON whatever the Content-Type said (or if there was
     none): old clients send none, text/plain or a form type, and must not lose telemetry."""
 
     media_type = "*/*"

@@ -1,4 +1,4 @@
-"""Commands to boats (DESIGN §5): the poll with ETag/304, and acks."""
+"""Commands to boats (docs/api.md#boat-api-v1): the poll with ETag/304, and acks."""
 
 from __future__ import annotations
 

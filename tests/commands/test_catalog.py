@@ -1,4 +1,4 @@
-"""The command catalog (DESIGN §4): kinds, vessel kinds, ranges, types and the SMS text form."""
+"""The command catalog (docs/operating.md): kinds, vessel kinds, ranges, types, SMS text form."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from commands import catalog
 from commands.catalog import MAVLINK, WAVE_GLIDER, CatalogError, parse_text, to_text, validate
 
-# One valid parameter set per kind, and the vessel kinds the table in DESIGN §4 allows.
+# One valid parameter set per kind, and the vessel kinds each kind allows.
 VALID: dict[str, tuple[dict[str, Any], tuple[str, ...]]] = {
     "move_to": ({"lat": -31.9505, "lon": 115.8605}, (MAVLINK,)),
     "hold": ({}, (MAVLINK, WAVE_GLIDER)),
@@ -232,7 +232,7 @@ def test_it_caps_the_number_of_mission_waypoints() -> None:
         validate("mission", {"items": items})
 
 
-# --- the SMS text form (thesis Table 3 and the Table 4 field trial) ---
+# --- the SMS text form (docs/sms.md: the language and the 2018 field trial) ---
 
 
 @pytest.mark.parametrize(
@@ -265,7 +265,7 @@ def test_it_parses_the_field_trial_commands(text: str, kind: str, params: dict[s
 
 
 def test_it_keeps_the_holdwp_index_rather_than_reading_it_as_hold() -> None:
-    # Table 4, 12:09: "#HOLDWP 1" was misinterpreted as #HOLD on the glider.
+    # Field trial, 12:09 (docs/sms.md): "#HOLDWP 1" was misinterpreted as #HOLD on the glider.
     valid = parse_text("#HOLDWP 1")
     assert valid.kind == "holdwp"
     assert valid.params == {"index": 1}
@@ -273,7 +273,7 @@ def test_it_keeps_the_holdwp_index_rather_than_reading_it_as_hold() -> None:
 
 
 def test_it_keeps_all_three_fseq_indices() -> None:
-    # Table 4, 12:28: "#FSEQ 1 1 4" came back as "#FSEQ 1 1", missing the end index.
+    # Field trial, 12:28 (docs/sms.md): "#FSEQ 1 1 4" was echoed as "#FSEQ 1 1", no end index.
     valid = parse_text("#FSEQ 1 1 4")
     assert to_text(valid.kind, valid.params) == "#FSEQ 1 1 4"
 

@@ -1,5 +1,5 @@
-"""Two polls racing for the same vessel on a real database (DESIGN §4: "Concurrent pollers must
-never both take the same command"). Runs on SQLite by default and on PostgreSQL with
+"""Two polls racing for the same vessel on a real database must never both take the same
+command (docs/architecture.md). Runs on SQLite by default and on PostgreSQL with
 DATABASE_URL; each thread has its own connection, released through a Barrier so the polls
 really overlap."""
 

@@ -1,4 +1,4 @@
-"""The thesis' `requestCommands.cgi`: Listing 2 with the command uid as a stable taskId."""
+"""The legacy SPAB `requestCommands.cgi` (docs/api.md) with the command uid as a stable taskId."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def test_it_answers_listing_2_with_the_command_uid_as_task_id(
     first = command_enqueue(
         vessel=vessel_a, kind="move_to", params={"lat": -31.9505, "lon": 115.8605}
     )
-    # Two move_to commands would supersede each other; the thesis shows two, so the
+    # Two move_to commands would supersede each other; the original client's example has two, so the
     # second arrives as its own (already sent) navigation order: deliver one, then queue.
     response = boat_a.get(LEGACY_COMMANDS)
     assert response.status_code == 200

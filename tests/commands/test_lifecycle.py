@@ -1,4 +1,4 @@
-"""The command lifecycle table (DESIGN §4), pure."""
+"""The command lifecycle table (docs/api.md#boat-api-v1), pure."""
 
 from __future__ import annotations
 

@@ -140,7 +140,7 @@ class ModemStandIn:
 
     Idle until it reads ``don``; then connects to the server and relays bytes both ways
     (anything written right after the trigger is buffered and sent once connected); when the
-    server closes the connection it goes back to idle, as the real modem does (seed §2.1).
+    server closes the connection it goes back to idle, as the real modem does.
     """
 
     TRIGGER = b"don"

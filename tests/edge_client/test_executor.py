@@ -102,7 +102,7 @@ def test_a_command_offered_many_times_is_queued_once(tmp_path, commands_config):
     assert executor.offer([raw("a"), raw("b"), raw("a")]) == 0
     assert executor.offer([raw("c"), {"kind": "hold"}]) == 1  # one without a uid is skipped
     box.close()
-    # After a restart the same uids are still known: the thesis' client re-ran them on every poll.
+    # After a restart the same uids are still known: the SPAB client re-ran them on every poll.
     box = Outbox(tmp_path / "o.sqlite3")
     executor = Executor(link, box, commands_config)
     assert executor.offer([raw("a"), raw("b"), raw("c"), raw("d")]) == 1

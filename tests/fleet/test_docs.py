@@ -1,12 +1,14 @@
 """The project's Markdown holds together: README.md is a short front door, every relative link
 and image in it and in docs/ resolves (file and heading), no page points outside the
 repository, and every environment variable the server and the glider bridge read is documented.
+Nor does any other tracked file (code comments, docstrings, TOML, scripts) cite what a clone lacks.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import re
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -135,6 +137,81 @@ def test_no_markdown_points_outside_the_repository(path: Path) -> None:
     # Links out of the repository are caught with the other links for README and docs/;
     # the other Markdown (edge_client/README.md, test data notes) is held to the same.
     assert [p for p in broken_links(path) if "outside the repository" in p] == []
+
+
+# Beyond Markdown (code comments, docstrings, data files, scripts), the same and a little more: a
+# bare mention of the design page or of the thesis the first system was described in, and the
+# thesis' numbering ("seed §4.3"). Words that merely contain it (hypothesis, schemathesis,
+# DESIGN_WORDS) are fine.
+OUTSIDE_ANYWHERE = [
+    *OUTSIDE,
+    re.compile(r"\bDESIGN\b"),
+    re.compile(r"\bthesis\b", re.IGNORECASE),
+    re.compile(r"\bseed\s*§"),
+]
+# This file names the patterns; fixture data under tests/**/data/ is upstream bytes kept as they
+# are (its Markdown notes are ours and are checked with all Markdown above).
+NOT_CHECKED = {"tests/fleet/test_docs.py"}
+FIXTURE_DATA = re.compile(r"^tests/(?:.+/)?data/")
+
+
+def outside_references(text: str) -> list[str]:
+    """The lines of ``text`` that mention something outside the repository, as 'line N: match'
+    (one entry per line, however many patterns match it)."""
+    found: dict[int, str] = {}
+    for pattern in OUTSIDE_ANYWHERE:
+        for m in pattern.finditer(text):
+            found.setdefault(text[: m.start()].count("\n") + 1, m.group(0))
+    return [f"line {n}: {match!r}" for n, match in sorted(found.items())]
+
+
+def tracked_text_files() -> list[str]:
+    """Every file git tracks that is UTF-8 text, minus fixture data and this file."""
+    listing = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=False)
+    if listing.returncode != 0:
+        pytest.skip("not a git checkout: the tracked files are unknown")
+    paths = []
+    for name in listing.stdout.decode().split("\0"):
+        if not name or name in NOT_CHECKED:
+            continue
+        if FIXTURE_DATA.match(name) and not name.endswith(".md"):
+            continue
+        data = (ROOT / name).read_bytes() if (ROOT / name).is_file() else b""
+        if b"\0" in data:
+            continue
+        try:
+            data.decode()
+        except UnicodeDecodeError:
+            continue
+        paths.append(name)
+    return paths
+
+
+def test_the_reference_checker_finds_what_points_outside() -> None:
+    text = (
+        "# ../shared/protocols/level2.md\n# DESIGN §5\n# (DESIGN: works at sea)\n"
+        "# STYLE.md\n# level2.md §8.4\n# the thesis' client\n# Thesis §9\n# seed §4.1\n"
+    )
+    flagged = [entry.split(":")[0] for entry in outside_references(text)]
+    assert flagged == [f"line {n}" for n in range(1, 9)], outside_references(text)
+    fine = (
+        "from hypothesis import given  # schemathesis too\nDESIGN_WORDS = set()\n"
+        "# §8.4, docs/level2.md; docs/api.md#legacy-spab-endpoints; the original SPAB client\n"
+    )
+    assert outside_references(fine) == []
+
+
+def test_no_tracked_file_points_outside_the_repository() -> None:
+    files = tracked_text_files()
+    assert "sms/level2/codec.py" in files and "docs/api.md" in files
+    assert "tests/sms/level2/data/README.md" in files
+    assert not any(f.endswith(".cfa") for f in files)
+    found = [
+        f"{name}: {where}"
+        for name in files
+        for where in outside_references((ROOT / name).read_text())
+    ]
+    assert found == []
 
 
 def test_the_readme_is_a_front_door() -> None:

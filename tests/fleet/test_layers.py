@@ -1,5 +1,5 @@
-"""Imports point one way (DESIGN §2): vessels at the bottom, telemetry and commands above it,
-sms above those, fleet on top; the edge client stands alone (it runs on the boat's Pi)."""
+"""Imports point one way (docs/architecture.md): vessels at the bottom, telemetry and commands
+above it, sms above those, fleet on top; the edge client stands alone (it runs on the boat's Pi)."""
 
 from __future__ import annotations
 
@@ -110,7 +110,7 @@ def test_edge_client_loads_no_server_package_at_run_time() -> None:
     assert loaded & SERVER_PACKAGES == set()
 
 
-# Pure logic (DESIGN §2): importable and testable with no database, no port, no network.
+# Pure logic (docs/architecture.md): importable and testable with no database, no port, no network.
 PURE = [
     "commands/catalog.py",
     "commands/lifecycle.py",

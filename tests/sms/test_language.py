@@ -1,4 +1,4 @@
-"""The SMS command language (sms/language.py): thesis Table 3 and Table 4, one-SMS replies."""
+"""The SMS command language (sms/language.py): docs/sms.md's words and trial, one-SMS replies."""
 
 from __future__ import annotations
 
@@ -71,7 +71,7 @@ def reply_to(items: list[Item]) -> str:
     return compose_reply(answers)
 
 
-# --- Table 3: every command and query ---
+# --- docs/sms.md#the-language: every command and query ---
 
 
 @pytest.mark.parametrize(
@@ -151,7 +151,7 @@ def test_status_and_help_are_understood() -> None:
     assert one("#HELP FLY").error == "unknown command #FLY"
 
 
-# --- Table 4: the field trial, in order, and its two failures ---
+# --- docs/sms.md#the-2018-field-trial, in order, and its two failures ---
 
 TABLE_4 = [
     ("#FHEAD 230", "#FHEAD 230"),
@@ -189,14 +189,14 @@ def test_table_4_in_order_with_the_shipped_table() -> None:
 
 
 def test_regression_holdwp_1_is_holdwp_never_hold() -> None:
-    # Table 4, 12:09: "#HOLDWP 1 … perhaps misinterpreted as #HOLD".
+    # Field trial, 12:09: "#HOLDWP 1 … perhaps misinterpreted as #HOLD".
     item = one("#HOLDWP 1")
     assert (item.command, dict(item.params)) == ("holdwp", {"index": 1})
     assert reply_to([item]) == "#HOLDWP 1 QUEUED"
 
 
 def test_regression_the_reply_to_fseq_1_1_4_carries_all_three_values() -> None:
-    # Table 4, 12:28: the reply came back as "#FSEQ 1 1", the last value lost.
+    # Field trial, 12:28: the reply came back as "#FSEQ 1 1", the last value lost.
     assert reply_to([one("#FSEQ 1 1 4")]) == "#FSEQ 1 1 4 QUEUED"
     assert reply_to(parse("#FSEQ 1 1 4", table=SHIPPED)) == f"#FSEQ 1 1 4 ERR {NOT_ENABLED}"
 

@@ -1,4 +1,4 @@
-"""v1 telemetry (DESIGN §5): batches in, one bad fix never loses the good ones."""
+"""v1 telemetry (docs/api.md#boat-api-v1): batches in, one bad fix never loses the good ones."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The thesis' `data.cgi` (DESIGN §5 "Legacy SPAB wire format"): Listing 1 of
-../shared/seed/000_87a6d6aa4cee2e16.txt in, the telemAck reply out."""
+"""The legacy SPAB `data.cgi` (docs/api.md#legacy-spab-endpoints): the original
+client's sample records (tests/support.py) in, the telemAck reply out."""
 
 from __future__ import annotations
 
@@ -234,7 +234,7 @@ def test_data_cgi_reads_json_whatever_the_content_type(
 def test_data_cgi_reads_a_body_sent_with_no_content_type_at_all(
     live_server: Any, vessel_a: Vessel, key_a: str
 ) -> None:
-    # requests sends bytes with no Content-Type header, as the thesis' hand-built client did.
+    # requests sends bytes with no Content-Type header, as the original hand-built client did.
     response = requests.post(
         f"{live_server.url}{DATA}?key={key_a}", data=json.dumps(LISTING_1).encode(), timeout=10
     )

@@ -206,7 +206,7 @@ def test_a_field_name_that_cannot_be_stored_is_named_safely(name: str) -> None:
         json.dumps(errors, ensure_ascii=False).encode()
 
 
-# --- legacy records (thesis Listing 1) ---
+# --- legacy records (docs/api.md#legacy-spab-endpoints) ---
 
 
 def test_it_parses_a_listing_1_record() -> None:

@@ -106,4 +106,4 @@ def test_legacy_responses_carry_no_browser_headers(boat_a: APIClient) -> None:
             assert header not in response.headers
 
 
-# --- requestCommands.cgi (Listing 2) ---
+# --- requestCommands.cgi (docs/api.md#legacy-spab-endpoints) ---

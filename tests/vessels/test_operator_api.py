@@ -1,4 +1,4 @@
-"""Operator API for vessels (DESIGN §5): the list and one vessel; only the move_to limit can be
+"""Operator API for vessels (docs/api.md): the list and one vessel; only the move_to limit can be
 changed (PATCH, tests/commands/test_move_limit.py)."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The base every boat endpoint stands on: key authentication, JSON only, one parser.
 
-The v1 endpoints and the thesis' legacy CGI endpoints live in the app that owns their data
+The v1 endpoints and the original SPAB's legacy CGI endpoints live in the app that owns their data
 (telemetry, commands); what they share about *talking to a boat* lives here, beside the key
 authentication.
 """
@@ -84,12 +84,12 @@ def batch_answer_schema(name: str) -> serializers.Serializer:
 
 
 def telem_ack(success: bool, message: str) -> list[dict[str, str]]:
-    """The thesis' answer shape (Listing 1's server side): `[{"type": "telemAck"}, {...}]`."""
+    """The legacy answer shape (docs/api.md): `[{"type": "telemAck"}, {...}]`."""
     return [{"type": "telemAck"}, {"success": "true" if success else "false", "message": message}]
 
 
 class LegacyBoatView(APIView):
-    """A thesis-era SPAB endpoint (DESIGN §5 "Legacy SPAB wire format"): key by header, Basic
+    """A legacy SPAB endpoint (docs/api.md#legacy-spab-endpoints): key by header, Basic
     or `?key=`; every error answered as a `telemAck`, the only shape the old client reads."""
 
     authentication_classes = [LegacyKeyAuthentication]

@@ -1,4 +1,4 @@
-"""Operator API for missions (DESIGN §5): `/api/v1/missions/` CRUD with the items nested, the
+"""Operator API for missions (docs/missions.md): `/api/v1/missions/` CRUD with the items nested, the
 route's legs and totals, file import and export. Writes go through vessels.services.
 
 Sending a mission queues a command, which the commands app owns: `POST

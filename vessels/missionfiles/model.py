@@ -163,6 +163,6 @@ def load_json(content: bytes | str, what: str) -> Any:
 
 
 def known_home(lat: float, lon: float) -> tuple[float, float] | None:
-    """ArduPilot reports home as 0, 0 until it has one (../shared/formats/mission-files.md);
+    """ArduPilot reports home as 0, 0 until it has one (docs/missions.md#files);
     Shoreside writes a mission with no planned home that way too."""
     return None if lat == 0 and lon == 0 else (lat, lon)

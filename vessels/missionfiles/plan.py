@@ -1,6 +1,6 @@
 """QGroundControl `.plan` files (JSON), read and written. Pure.
 
-Format: ../shared/formats/mission-files.md (QGC dev guide, file_formats/plan). Items are
+Format: docs/missions.md#files (QGC dev guide, file_formats/plan). Items are
 numbered from 1 as QGC numbers them (its planned home is 0); DO_JUMP targets a doJumpId.
 """
 

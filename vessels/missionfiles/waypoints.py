@@ -1,6 +1,6 @@
 """Mission Planner / "QGC WPL" `.waypoints` files (text), read and written. Pure.
 
-Format: ../shared/formats/mission-files.md (mavlink.io/en/file_formats): a `QGC WPL 110`
+Format: docs/missions.md#files (mavlink.io/en/file_formats): a `QGC WPL 110`
 header, then one TAB-separated line of 12 fields per item: INDEX CURRENT FRAME COMMAND
 PARAM1..4 LAT LON ALT AUTOCONTINUE. Row 0 is ArduPilot's home, not a waypoint; a DO_JUMP
 targets an INDEX.

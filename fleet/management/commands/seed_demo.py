@@ -53,7 +53,7 @@ DEMO_VESSELS = [
     # slug, name, kind, start (lat, lon), telemetry period
     ("spab", "SPAB", "mavlink", (-31.9790, 115.8170), 10),  # Matilda Bay, Swan River
     ("spab-2", "SPAB 2", "mavlink", (-32.0560, 115.7400), 10),  # off Fremantle
-    ("glider", "Wave Glider", "wave_glider", (-32.0380, 115.3325), 300),  # thesis trial area
+    ("glider", "Wave Glider", "wave_glider", (-32.0380, 115.3325), 300),  # original trials' area
 ]
 CHANNELS = [
     ("water_temp_c", "Water temperature", "°C", 10, 30),

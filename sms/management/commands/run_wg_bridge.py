@@ -1,8 +1,8 @@
-"""manage.py run_wg_bridge: the Wave Glider bridge on the glider's payload Pi (DESIGN §7).
+"""manage.py run_wg_bridge: the Wave Glider bridge on the glider's payload Pi (docs/wave-glider.md).
 
 Every option may come from the environment instead (``WG_VESSEL``, ``WG_LEVEL2_PORT``, …; see
 ``sms/bridge/glider.env.example``); an option given on the command line wins. SIGTERM and
-SIGINT only set a flag: the bridge stops its threads and writes what it holds (STYLE.md §6).
+SIGINT only set a flag: the bridge stops its threads and writes what it holds.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The database as the payload machine's command source (sms/bridge/commands.py), driven by the
-real payload machine with C&C frames (level2.md §8.4–§8.6, §10)."""
+real payload machine with C&C frames (§8.4–§8.6, §10 of docs/level2.md)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Random runs of the C&C talking to the database-backed command source (hypothesis stateful):
 polls, requests, retries, answers, timeouts, cancels and bridge restarts in any order.
 
-The properties (issue 11 §2; level2.md §8.6, §10):
+The properties (issue 11 §2; §8.6, §10 of docs/level2.md):
 * no command is handed over twice: one queued → sent event each, and a command handed over
   again is only ever the answer to a retry of the same request (same tid);
 * a C&C answer changes at most the command handed over last, and only while that one awaits

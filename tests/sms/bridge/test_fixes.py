@@ -1,4 +1,4 @@
-"""The C&C's status requests as the glider's fixes (sms/bridge/fixes.py, level2.md §8.3)."""
+"""The C&C's status requests as the glider's fixes (sms/bridge/fixes.py, §8.3 of docs/level2.md)."""
 
 from __future__ import annotations
 

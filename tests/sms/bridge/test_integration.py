@@ -1,6 +1,6 @@
 """The bridge's building blocks wired together through real serial plumbing: the C&C simulator
 on one end of a pseudo-terminal, the payload runner with the database-backed machine on the
-other, sensor readings from the UDP stand-in (level2.md §8–§10, §16; thesis §9)."""
+other, readings from the UDP stand-in (§8–§10, §16 of docs/level2.md, docs/wave-glider.md)."""
 
 from __future__ import annotations
 
@@ -188,6 +188,6 @@ def test_status_replies_carry_the_boards_readings(glider_bridge: Glider) -> None
     reply = link.receive(2.0)
     assert reply is not None and reply.tid == 0x50
     block = StatusReply.from_bytes(reply.body).block
-    # the stand-in sends the captured readings (level2.md §8.4): 21 °C, 35 %, 21 °C, 100 kPa
+    # the stand-in sends the captured readings (§8.4, docs/level2.md): 21 °C, 35 %, 21 °C, 100 kPa
     assert (block.humidity_temp_c, block.humidity_pct) == (21, 35)
     assert (block.pressure_temp_c, block.pressure_kpa) == (21, 100)

@@ -65,7 +65,7 @@ def test_queries_are_answered_at_once_and_status_gives_the_position(glider: Vess
     with running_bridge(glider) as rig:
         sim = rig.cc()
         sim.poll_once()
-        sim.poll_once()  # every other status request carries the position (level2.md §8.3)
+        sim.poll_once()  # every other status request carries the position (§8.3, docs/level2.md)
         assert wait_for(lambda: rig.bridge.fixes.pending)  # held for its batch; an SMS flushes it
         rig.modem.inject(QUERY, "#FHEAD")
         rig.modem.inject(QUERY, "#STATUS")

@@ -1,5 +1,5 @@
 """run_wg_bridge's configuration: options, WG_* variables and defaults, checked once with clear
-errors (STYLE.md §12)."""
+errors (a frozen dataclass parsed once)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The whole bridge under faults: a misbehaving C&C line, a misbehaving modem, ports that go
-away (issue 11, Tests: faults; level2.md §10, §16; gsm-sms-at.md "What a robust driver does")."""
+away (issue 11, Tests: faults; §10, §16 of docs/level2.md; docs/sms.md, 'The GSM modem')."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """An SMS command's reply through the bridge's answer path: the SMS queues the command, the C&C
-takes it and answers (level2.md §8.5, §8.6), and the held reply says what happened (issue 11
+takes it and answers (§8.5, §8.6 of docs/level2.md), and the held reply says what happened (issue 11
 §3), from the answer the bridge recorded on the command's events, not from the prose beside it
 (issue 17 item 4)."""
 

@@ -1,6 +1,6 @@
 """``manage.py run_wg_bridge`` as a real process, killed with SIGKILL at each step of a handover
 and started again: every command handed over exactly once, every SMS answered once (issue 11,
-Tests: faults; level2.md §8.5, §8.6, §10)."""
+Tests: faults; §8.5, §8.6, §10 of docs/level2.md)."""
 
 from __future__ import annotations
 

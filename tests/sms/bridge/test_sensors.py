@@ -1,5 +1,5 @@
 """The sensor manager's I/O over real UDP sockets: the subscriber against the stand-in for the
-payload board's data servers (thesis §9), and the latest readings (sms/bridge/sensors.py)."""
+board's data servers (docs/wave-glider.md), and the latest readings (sms/bridge/sensors.py)."""
 
 from __future__ import annotations
 

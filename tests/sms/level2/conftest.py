@@ -1,4 +1,4 @@
-"""Fixtures for the Level 2 tests: the two real captures (level2.md Appendix B)."""
+"""Fixtures for the Level 2 tests: the two real captures (tests/sms/level2/data/README.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Typed bodies and coordinates (../shared/protocols/level2.md §8, §11, Appendix A)."""
+"""Typed bodies and coordinates (§8, §11 of docs/level2.md; the captured frames)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Codec: every vector of ../shared/protocols/level2.md (§3, §11.1, §11.2, §16, Appendix A)."""
+"""Codec: every vector of docs/level2.md (§3, §11.1, §11.2, §16, the captured frames)."""
 
 from __future__ import annotations
 

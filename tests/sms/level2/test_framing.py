@@ -1,6 +1,6 @@
-"""Incremental decoder: captures, chunked feeds, resync, timeouts, hypothesis (STYLE.md §9).
+"""Incremental decoder: captures, chunked feeds, resync, timeouts, hypothesis.
 
-References: ../shared/protocols/level2.md §4 and §16 "Decoding", Appendix A/B, captures/README.md.
+References: §4 and §16 (decoding) of docs/level2.md; tests/sms/level2/data/README.md.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The inner command table (level2.md §11.1, §13–§14; DESIGN.md §4; thesis Table 4)."""
+"""The inner command table (§11.1, §13–§14 of docs/level2.md; docs/sms.md, the field trial)."""
 
 from __future__ import annotations
 
@@ -120,7 +120,7 @@ def test_provisional_entries_are_refused_unless_enabled(text: str) -> None:
 
 
 def test_holdwp_when_enabled_sends_its_index_and_is_not_hold() -> None:
-    # thesis Table 4: "#HOLDWP 1" behaved like "#HOLD"
+    # the 2018 field trial (docs/sms.md): "#HOLDWP 1" behaved like "#HOLD"
     table = enabled("holdwp")
     holdwp = table.parse("holdwp 1").packet
     assert holdwp.params[4] == 1
@@ -129,7 +129,7 @@ def test_holdwp_when_enabled_sends_its_index_and_is_not_hold() -> None:
 
 
 def test_fseq_when_enabled_sends_all_three_indices() -> None:
-    # thesis Table 4: "#FSEQ 1 1 4" lost its last parameter
+    # the 2018 field trial (docs/sms.md): "#FSEQ 1 1 4" lost its last parameter
     command = enabled("fseq", value="0x9999").parse("fseq 1 1 4")
     assert command.packet.params[2:] == bytes((1, 1, 4))
     assert command.text == "fseq 1 1 4"

@@ -1,4 +1,4 @@
-"""The payload state machine (level2.md §8–§10, §16 "Payload behaviour")."""
+"""The payload state machine (§8–§10, §16 of docs/level2.md)."""
 
 from __future__ import annotations
 

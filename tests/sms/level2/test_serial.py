@@ -1,6 +1,6 @@
-"""Through real serial plumbing: the payload runner against the C&C simulator (STYLE.md §10).
+"""Through real serial plumbing: the payload runner against the C&C simulator.
 
-References: ../shared/protocols/level2.md §9–§10 (polling, retries), §16 (simulator duties).
+References: §9–§10 (polling, retries), §16 (simulator duties) of docs/level2.md.
 The soak test runs an hour of protocol time with a virtual clock: waiting for the next poll
 costs nothing, while every byte still crosses a pseudo-terminal pair and the runner's read loop.
 """

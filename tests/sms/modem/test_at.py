@@ -1,6 +1,6 @@
-"""The pure AT layer (sms/modem/at.py): line reader, parsers, error codes (STYLE.md §9).
+"""The pure AT layer (sms/modem/at.py): line reader, parsers, error codes.
 
-References: ../shared/protocols/gsm-sms-at.md; 3GPP TS 27.005 §3 (text-mode formats).
+References: docs/sms.md, 'The GSM modem'; 3GPP TS 27.005 §3 (text-mode formats).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The modem driver against the simulator through a real pseudo-terminal and a TCP socket.
 
-References: ../shared/protocols/gsm-sms-at.md ("What a robust driver does"); STYLE.md §10.
+References: docs/sms.md, 'The GSM modem' (what a robust driver does).
 Timeouts are configured short per test; faults come from the simulator's switches, not sleeps.
 """
 
