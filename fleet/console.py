@@ -3,9 +3,9 @@ mission it is running, read together for the whole fleet.
 
 Polled far less often than the fleet itself (``FLEET_MAP_TRAIL_REFRESH_S``): between two
 reads the page extends each trail with the last fixes the fleet poll brings anyway. Reads only:
-a trail is the vessel's track over the last minutes, simplified from the track overview (or
-from the fixes of minutes not yet rebuilt, as the track view does), and a vessel with no fix
-in the window costs no query at all.
+a trail is the vessel's track over the last minutes, sketched from the track overview's
+buckets (and from the fixes of minutes not yet rebuilt, as the track view does), and a vessel
+with no fix in the window costs no query at all.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import Any
 
 from commands.models import Command
 from edge_client.contract.status import UNFINISHED, Status
-from telemetry.track import gap_seconds, track
+from telemetry.track import gap_seconds, sketch
 from vessels.models import Vessel
 
 # A trail is a sketch of the last minutes, not the track view: this many points at most.
@@ -49,7 +49,7 @@ def trail(vessel: Vessel, start: dt.datetime, end: dt.datetime) -> dict[str, Any
     newest = _fix_time(vessel)
     if newest is None or newest < start:
         return {"gap_s": gap_seconds(vessel), "lines": []}
-    result = track(vessel=vessel, start=start, end=end, max_points=TRAIL_MAX_POINTS)
+    result = sketch(vessel=vessel, start=start, end=end, max_points=TRAIL_MAX_POINTS)
     lines = [
         [[_epoch(t), round(lat, COORD_DECIMALS), round(lon, COORD_DECIMALS)] for t, lat, lon in s]
         for s in result.segments

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import datetime as dt
 import itertools
+import re
 
 import pytest
 from django.utils import timezone
@@ -133,6 +134,8 @@ def test_the_trail_fades_and_the_running_mission_shows_its_waypoint(
     assert set(rows) == {"spab", "spab-2"}
     assert "SPAB" in rows["spab"] and "wp 2/4" in rows["spab"] and "12.4 V" in rows["spab"]
     assert "reporting" in rows["spab-2"] and "11.9 V" in rows["spab-2"]
+    ages = [c.text for c in browser.find_elements(By.CSS_SELECTOR, "table.vessel-list td.fix-age")]
+    assert len(ages) == 2 and all(re.fullmatch(r"\d+ s", age) for age in ages), ages
 
     # A click in the list selects the vessel: its row, its panel, the map brought to it.
     browser.find_element(By.CSS_SELECTOR, 'table.vessel-list tr[data-slug="spab"]').click()

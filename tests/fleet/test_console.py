@@ -7,6 +7,7 @@ import datetime as dt
 from typing import Any
 
 import pytest
+from django.core.management import call_command
 from django.db import connection
 from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
@@ -97,6 +98,23 @@ def test_a_long_trail_is_simplified_and_broken_at_silences(
     assert len(lines) == 2
     assert sum(len(line) for line in lines) <= TRAIL_MAX_POINTS
     assert lines[1][0][0] - lines[0][-1][0] > 9 * 60
+
+
+def test_a_trail_is_read_from_the_rebuilt_overview_not_every_fix(
+    operator: APIClient, vessel_a: Vessel
+) -> None:
+    """An hour of 1 Hz fixes: once the overview is rebuilt, a trail reads its minute buckets
+    (a few points a minute) and the raw fixes of the ragged ends only."""
+    times = sail(vessel_a, 60, every_s=1)
+    call_command("rebuild_track_overview")
+    operator.get(OVERLAYS)
+    with CaptureQueriesContext(connection) as queries:
+        body = operator.get(OVERLAYS).json()
+    [line] = by_slug(body)["spab"]["trail"]["lines"]
+    assert line[-1][0] == pytest.approx(times[-1].timestamp())
+    assert 60 < len(line) <= TRAIL_MAX_POINTS
+    fix_reads = [q["sql"] for q in queries.captured_queries if "telemetry_fix" in q["sql"]]
+    assert len(fix_reads) <= 2  # the two ragged ends, never the whole hour
 
 
 def test_the_running_mission_is_the_acknowledged_one(operator: APIClient, vessel_a: Vessel) -> None:

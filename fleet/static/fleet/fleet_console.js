@@ -271,8 +271,8 @@
 
   // The panel's mission block for the selected vessel.
   Overlays.prototype.missionBox = function (slug) {
-    var m = this.missions[slug], v = this.fleet.vessels[slug];
-    if (!m) { return null; }
+    var m = slug && this.missions[slug], v = slug && this.fleet.vessels[slug];
+    if (!m || !v) { return null; }
     var box = el("div", { class: "panel-mission" }, [el("h3", { text: "Mission" })]);
     var p = this.progress(slug), fix = v.last_fix;
     var ends = { stop: "stops at the last waypoint", loop: "starts again after the last waypoint", return_home: "returns home after the last waypoint" };
@@ -379,10 +379,9 @@
     fleet.map.setView(bounds.getCenter(), zoom);
   }
 
-  S.fleetConsole = {
-    Overlays: Overlays,
-    declutter: declutter,
-    zoomToGroup: zoomToGroup,
-    colourOf: colourOf,
-  };
+  S.fleetConsole = S.fleetConsole || {};
+  S.fleetConsole.Overlays = Overlays;
+  S.fleetConsole.declutter = declutter;
+  S.fleetConsole.zoomToGroup = zoomToGroup;
+  S.fleetConsole.colourOf = colourOf;
 })();

@@ -53,6 +53,7 @@
     window.addEventListener("resize", function () { self.fitWindow(); });
     this.fitWindow();
     this.overlays = new S.fleetConsole.Overlays(this);
+    this.list = new S.fleetConsole.VesselList(this, this.listBox);
     document.addEventListener("keydown", function (e) {
       if (e.key === "Escape") { self.cancelPick(); }
     });
@@ -209,50 +210,27 @@
       node.setAttribute("data-status", st.status);
       L.DomUtil[slug === self.selected ? "addClass" : "removeClass"](node, "selected");
     });
-    var key = JSON.stringify([this.selected, this.version, this.overlays.version, this.order.map(function (slug) {
+    var key = JSON.stringify([this.selected, this.version, this.order.map(function (slug) {
       return self.state(self.vessels[slug]).status;
     })]);
-    if (key !== this.headKey) { this.headKey = key; this.renderList(); this.renderHead(); }
+    if (key !== this.headKey) { this.headKey = key; this.renderHead(); }
+    this.list.render();
+    this.renderMission();
     this.updateAges();
     S.fleetConsole.declutter(this);
   };
 
   // New trails or missions: the list and the panel show the missions' progress.
-  FleetMap.prototype.overlaysChanged = function () {
-    this.headKey = null;
-    this.tick();
-  };
+  FleetMap.prototype.overlaysChanged = function () { this.tick(); };
 
-  // The compact list beside the map: one row a vessel, a click selects it and brings it in view.
-  FleetMap.prototype.renderList = function () {
-    var self = this;
-    var table = el("table", { class: "vessel-list" }, [
-      el("thead", {}, [el("tr", {}, [
-        el("th", { text: "Vessel" }), el("th", { text: "State" }), el("th", { text: "Fix" }), el("th", { text: this.label("battery_v") }),
-      ])]),
-    ]);
-    var body = table.appendChild(el("tbody"));
-    this.order.forEach(function (slug) {
-      var v = self.vessels[slug], st = self.state(v), fix = v.last_fix;
-      var progress = self.overlays.progressText(slug);
-      var name = el("td", { class: "name" }, [
-        el("span", { class: "status-dot status-" + st.status.replace(" ", "-") }), el("b", { text: v.name }),
-        progress ? el("span", { class: "muted small wp-progress", text: " " + progress.replace("waypoint ", "wp ").replace(" of ", "/"), title: progress }) : null,
-      ]);
-      body.appendChild(el("tr", {
-        "data-slug": slug, class: slug === self.selected ? "selected" : "", tabindex: "0", title: "Show " + v.name,
-        onclick: function () { self.select(slug, { centre: true }); },
-        onkeydown: function (e) { if (e.key === "Enter") { self.select(slug, { centre: true }); } },
-      }, [
-        name,
-        el("td", { class: "state", text: st.status }),
-        el("td", { class: "fix-age" }, [fix ? self.ageSpan(fix.time) : "—"]),
-        el("td", { class: "battery", text: fix && fix.battery_v !== null && fix.battery_v !== undefined ? S.fmtValue(fix.battery_v, self.unit("battery_v")) : "—" }),
-      ]));
-    });
-    if (!this.order.length) { body.appendChild(el("tr", {}, [el("td", { colspan: "4", class: "muted", text: "No active vessels." })])); }
-    this.listBox.innerHTML = "";
-    this.listBox.appendChild(table);
+  // The selected vessel's mission, rebuilt only when what it says changes.
+  FleetMap.prototype.renderMission = function () {
+    var box = this.overlays.missionBox(this.selected);
+    var key = box ? box.outerHTML : "";
+    if (key === this.missionKey) { return; }
+    this.missionKey = key;
+    this.missionBox.innerHTML = "";
+    if (box) { this.missionBox.appendChild(box); }
   };
 
   FleetMap.prototype.ageSpan = function (since, suffix) {
@@ -296,14 +274,11 @@
     var box = this.head;
     box.innerHTML = "";
     this.readingsBox.innerHTML = "";
-    this.missionBox.innerHTML = "";
     if (!this.selected) {
       box.appendChild(el("p", { class: "muted help", text: "Click a vessel on the map or in the list for its readings, mission, commands and track." }));
       return;
     }
     var v = this.vessels[this.selected], st = this.state(v), fix = v.last_fix;
-    var mission = this.overlays.missionBox(v.slug);
-    if (mission) { this.missionBox.appendChild(mission); }
     box.appendChild(el("button", { type: "button", class: "link-button back", text: "← Fleet", onclick: function () { self.select(null); } }));
     box.appendChild(el("h2", {}, [v.name, " ", el("span", { class: "status-badge status-" + st.status.replace(" ", "-"), text: st.status })]));
     box.appendChild(el("p", { class: "muted", text: v.kind === "wave_glider" ? "Wave Glider" : "ArduPilot (MAVLink)" }));
