@@ -4,11 +4,17 @@ running mission, read seldom beside the cheap fleet poll."""
 from __future__ import annotations
 
 import datetime as dt
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 from typing import Any
 
 import pytest
 from django.core.management import call_command
 from django.db import connection
+from django.test import Client
 from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 from rest_framework.test import APIClient
@@ -17,11 +23,14 @@ from commands.models import Command
 from commands.services import command_ack, command_claim_open, command_enqueue
 from fleet.console import TRAIL_MAX_POINTS
 from fleet.maps import trail_choices
+from telemetry.models import TrackDirty
 from telemetry.services import fix_ingest
 from tests.conftest import make_user
 from vessels.models import Vessel
 
+ROOT = Path(__file__).resolve().parents[2]
 OVERLAYS = "/api/v1/fleet/overlays/"
+WRITES = ("INSERT", "UPDATE", "DELETE")
 ROUTE = [
     {"lat": -31.990, "lon": 115.700},
     {"lat": -31.995, "lon": 115.705},
@@ -117,6 +126,19 @@ def test_a_trail_is_read_from_the_rebuilt_overview_not_every_fix(
     assert len(fix_reads) <= 2  # the two ragged ends, never the whole hour
 
 
+def test_reading_the_overlays_writes_nothing(operator: APIClient, vessel_a: Vessel) -> None:
+    """Reads never write: minutes waiting for the background rebuild stay marked for it."""
+    sail(vessel_a, 30, every_s=5)
+    running_mission(vessel_a)
+    marks = sorted(TrackDirty.objects.values_list("start", flat=True))
+    assert marks
+    with CaptureQueriesContext(connection) as queries:
+        assert operator.get(OVERLAYS).status_code == 200
+    writes = [q["sql"] for q in queries if q["sql"].lstrip().upper().startswith(WRITES)]
+    assert writes == []
+    assert sorted(TrackDirty.objects.values_list("start", flat=True)) == marks
+
+
 def test_the_running_mission_is_the_acknowledged_one(operator: APIClient, vessel_a: Vessel) -> None:
     sail(vessel_a, 5)
     running = running_mission(vessel_a)
@@ -208,3 +230,42 @@ def test_statements_grow_with_the_vessels_that_moved_only(
 def test_the_page_offers_the_configured_trail_length() -> None:
     assert trail_choices(60) == [0, 15, 60, 180, 720]
     assert trail_choices(90) == [0, 15, 60, 90, 180, 720]
+
+
+def page_config(user) -> dict:
+    client = Client()
+    client.force_login(user)
+    html = client.get("/admin/").content.decode()
+    start = html.index('<script id="fleet-map-config" type="application/json">')
+    start = html.index(">", start) + 1
+    return json.loads(html[start : html.index("</script>", start)])
+
+
+def test_the_fleet_map_page_is_told_where_and_how_long_the_trails_are(
+    operator_user, settings
+) -> None:
+    settings.FLEET_MAP_TRAIL_MINUTES = 90
+    settings.FLEET_MAP_TRAIL_REFRESH_S = 30
+    config = page_config(operator_user)
+    assert config["overlaysUrl"] == OVERLAYS
+    assert (config["trailMinutes"], config["trailRefreshS"]) == (90, 30)
+    assert config["trailChoices"] == [0, 15, 60, 90, 180, 720]
+    # Neither fixes nor commands to see: nothing to read there.
+    assert page_config(make_user("frank", ["vessels.view_vessel"]))["overlaysUrl"] == ""
+
+
+@pytest.mark.parametrize(
+    ("name", "raw", "said"),
+    [
+        ("FLEET_MAP_TRAIL_MINUTES", "1441", "is not 0 to 1440 minutes"),
+        ("FLEET_MAP_TRAIL_MINUTES", "-5", "is not 0 to 1440 minutes"),
+        ("FLEET_MAP_TRAIL_REFRESH_S", "1", "is under 5 seconds"),
+    ],
+)
+def test_a_trail_setting_out_of_range_stops_the_site(name: str, raw: str, said: str) -> None:
+    result = subprocess.run(
+        [sys.executable, "-c", "import fleet.settings"],
+        cwd=ROOT, env={**os.environ, name: raw}, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert result.returncode != 0
+    assert f"{name}={raw} {said}" in result.stderr
