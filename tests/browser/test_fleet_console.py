@@ -16,6 +16,8 @@ from commands.models import Command
 from commands.services import command_ack, command_claim_open, command_enqueue
 from telemetry.services import fix_ingest
 from tests.browser.support import js, log_in, shot, wait_for
+from tests.browser.test_fleet_map import HOME, simulated_boat  # noqa: F401 (a fixture)
+from tests.edge_client.helpers import wait_until
 from vessels.models import Vessel
 from vessels.services import vessel_create
 
@@ -267,3 +269,43 @@ def test_the_map_fills_the_window_and_the_app_list_follows(
     apps = browser.find_element(By.ID, "content-main")
     assert apps.location["y"] >= bottom  # the app list is below the map
     assert "Administration" in browser.find_element(By.CSS_SELECTOR, "h1.admin-index-title").text
+
+
+def test_a_mission_run_by_the_simulated_boat_shows_the_waypoint_it_heads_for(
+    browser,
+    live_server,
+    operator_user,
+    simulated_boat: Vessel,  # noqa: F811 (the fixture imported above)
+) -> None:
+    """The real edge client and Rover simulator: the waypoint numbers come from the boat."""
+    vessel = simulated_boat
+    wait_until(lambda: Vessel.objects.get(pk=vessel.pk).last_fix, 30, "a first fix")
+    vessel.refresh_from_db()
+    # Three waypoints 300-600 m from home: the simulator (20 m/s) takes several seconds a leg.
+    route = [
+        (HOME[0] + 0.003, HOME[1]),
+        (HOME[0] + 0.003, HOME[1] + 0.004),
+        (HOME[0], HOME[1] + 0.004),
+    ]
+    items = [{"lat": lat, "lon": lon, "hold_s": 3} for lat, lon in route]
+    command = command_enqueue(vessel=vessel, kind="mission", params={"items": items})
+    log_in(browser, live_server, operator_user)
+    wait_for(
+        browser, lambda b: js(b, "return !!(window.shoresideFleet && window.shoresideFleet.fitted)")
+    )
+    js(browser, "window.shoresideFleet.map.setView(arguments[0], 15, {animate: false})", list(HOME))
+    browser.find_element(By.CSS_SELECTOR, 'table.vessel-list tr[data-slug="spab"]').click()
+
+    def heading_to(b) -> str | None:
+        text = b.find_element(By.ID, "fleet-panel").text
+        found = re.search(r"Heading to waypoint (\d) of 3", text)
+        return found and found.group(1)
+
+    wait_until(lambda: Command.objects.get(pk=command.pk).status == "acknowledged", 30, "the ack")
+    first = wait_for(browser, heading_to, 60)
+    shot(browser, "console-5-simulated-boat-mission")
+    # The boat moves on: a later waypoint, the legs behind it dimmed.
+    wait_for(browser, lambda b: (heading_to(b) or "0") > first, 90)
+    assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map path.mission-leg.done")
+    assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map .mission-wp.current")
+    shot(browser, "console-6-simulated-boat-next-waypoint")
