@@ -269,6 +269,8 @@ def test_the_map_fills_the_window_and_the_app_list_follows(
     apps = browser.find_element(By.ID, "content-main")
     assert apps.location["y"] >= bottom  # the app list is below the map
     assert "Administration" in browser.find_element(By.CSS_SELECTOR, "h1.admin-index-title").text
+    js(browser, "document.querySelector('h1.admin-index-title').scrollIntoView()")
+    shot(browser, "console-7-app-list-below-the-map")
 
 
 def test_a_mission_run_by_the_simulated_boat_shows_the_waypoint_it_heads_for(

@@ -122,6 +122,9 @@
       })
       .catch(function () { self.etag = null; }) // the fleet poll reports a dead link
       .then(function () {
+        // Only the newest read schedules the next one (a changed length starts its own).
+        if (minutes !== self.minutes) { return; }
+        clearTimeout(self.timer);
         self.timer = setTimeout(function () { self.refresh(); }, self.cfg.trailRefreshS * 1000);
       });
   };
