@@ -53,6 +53,17 @@ def can_view_track(user: AbstractBaseUser) -> bool:
     return can_view_fleet(user) and user.has_perm("telemetry.view_fix")
 
 
+def can_view_overlays(user: AbstractBaseUser) -> bool:
+    return can_view_fleet(user) and (
+        user.has_perm("telemetry.view_fix") or user.has_perm("commands.view_command")
+    )
+
+
+def trail_choices(default: int) -> list[int]:
+    """The trail lengths the map offers (minutes; 0 = none), the configured one among them."""
+    return sorted({0, 15, 60, 180, 720, default})
+
+
 def _vessel_url(name: str) -> str:
     return reverse(name, kwargs={"slug": SLUG})
 
@@ -67,6 +78,11 @@ def fleet_map_config(request: HttpRequest) -> dict[str, Any]:
         "cancelUrl": reverse("command-cancel", kwargs={"uid": UID}),
         "trackUrl": _vessel_url("fleet-track") if can_view_track(user) else "",
         "pollS": settings.FLEET_MAP_POLL_S,
+        # Trails and running missions (fleet.console): only for who may see fixes or commands.
+        "overlaysUrl": reverse("fleet-overlays") if can_view_overlays(user) else "",
+        "trailMinutes": settings.FLEET_MAP_TRAIL_MINUTES,
+        "trailChoices": trail_choices(settings.FLEET_MAP_TRAIL_MINUTES),
+        "trailRefreshS": settings.FLEET_MAP_TRAIL_REFRESH_S,
         "overduePeriods": OVERDUE_PERIODS,
         "panelCommands": PANEL_COMMANDS,
         "canCommand": can_command,

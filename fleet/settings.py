@@ -355,6 +355,16 @@ MAP_TILES_URL = os.environ.get("MAP_TILES_URL", "https://tile.openstreetmap.org/
 MAP_TILES_ATTRIBUTION = os.environ.get("MAP_TILES_ATTRIBUTION", "© OpenStreetMap contributors")
 # Seconds between the fleet map's polls of /api/v1/fleet/ (a 304 when nothing changed).
 FLEET_MAP_POLL_S = env_int("FLEET_MAP_POLL_S", 5)
+# The fleet map's trails: each vessel's positions of the last this many minutes, fading with
+# age (0 = none; the page offers other lengths), read from /api/v1/fleet/overlays/ every
+# FLEET_MAP_TRAIL_REFRESH_S seconds with the running missions; the fleet poll's fixes extend
+# them in between.
+FLEET_MAP_TRAIL_MINUTES = env_int("FLEET_MAP_TRAIL_MINUTES", 60)
+FLEET_MAP_TRAIL_REFRESH_S = env_int("FLEET_MAP_TRAIL_REFRESH_S", 60)
+if not 0 <= FLEET_MAP_TRAIL_MINUTES <= 24 * 60:
+    raise ValueError(f"FLEET_MAP_TRAIL_MINUTES={FLEET_MAP_TRAIL_MINUTES} is not 0 to 1440 minutes")
+if FLEET_MAP_TRAIL_REFRESH_S < 5:
+    raise ValueError(f"FLEET_MAP_TRAIL_REFRESH_S={FLEET_MAP_TRAIL_REFRESH_S} is under 5 seconds")
 LEAFLET_CONFIG = {
     "TILES": [],
     "DEFAULT_CENTER": (-32.0, 115.75),

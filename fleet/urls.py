@@ -6,6 +6,7 @@ from drf_spectacular.views import SpectacularSwaggerView
 from rest_framework.permissions import IsAuthenticated
 
 from commands.api import urls as command_urls
+from fleet.console_api import FleetOverlaysView
 from fleet.schema import SchemaView
 from sms.api import urls as sms_urls
 from telemetry.api import urls as telemetry_urls
@@ -18,6 +19,7 @@ api_v1 = [
     path("", include(telemetry_urls.urlpatterns)),
     path("", include(command_urls.urlpatterns)),
     path("", include(sms_urls.urlpatterns)),
+    path("fleet/overlays/", FleetOverlaysView.as_view(), name="fleet-overlays"),
     path("schema/", SchemaView.as_view(permission_classes=[IsAuthenticated]), name="schema"),
     path(
         "docs/",

@@ -1,8 +1,10 @@
-// The fleet map (issue 9 §1, §4): every vessel at its last position, an arrow for its heading,
-// coloured by state, labelled with its name and the age of its last fix; it polls
-// /api/v1/fleet/ with If-None-Match and never moves the operator's view after the first fit.
-// Clicking a vessel opens the side panel: readings with units, its commands moving through
-// their states, links, and the command actions (through the operator command API).
+// The fleet map (issue 9 §1, §4; issue 18 §2): every vessel at its last position, an arrow
+// for its heading, coloured by state, labelled with its name and the age of its last fix; it
+// polls /api/v1/fleet/ with If-None-Match and never moves the operator's view after the first
+// fit. Beside it, the list of vessels (state, age, battery, mission progress); clicking one
+// there or on the map opens the side panel: readings with units, its mission, its commands
+// moving through their states, links, and the command actions (through the operator command
+// API). Trails, missions and labels that give way: fleet_console.js.
 (function () {
   "use strict";
   var S = window.Shoreside;
@@ -13,6 +15,8 @@
   // few hundred metres; the server refuses past the vessel's limit (MOVE_TO_MAX_M, 5 km).
   var MOVE_WARN_M = 2000;
   var FIT_MAX_ZOOM = 14;
+  // The map fills the window below the page header, but never shrinks below this.
+  var MIN_HEIGHT_PX = 420;
 
   function FleetMap(map, cfg) {
     this.map = map;
@@ -34,13 +38,22 @@
     this.targets = L.layerGroup().addTo(map); // where the open move_to commands go
     this.panel = document.getElementById("fleet-panel");
     this.panel.innerHTML = "";
-    this.head = this.panel.appendChild(el("div", { class: "panel-head" }));
-    this.actionsBox = this.panel.appendChild(el("div", { class: "panel-actions" }));
-    this.commandsBox = this.panel.appendChild(el("div", { class: "panel-commands" }));
+    // The list of vessels stays at the top; the selected vessel's panel scrolls below it.
+    this.listBox = this.panel.appendChild(el("div", { class: "vessel-list-box" }));
+    this.body = this.panel.appendChild(el("div", { class: "panel-body" }));
+    this.head = this.body.appendChild(el("div", { class: "panel-head" }));
+    this.missionBox = this.body.appendChild(el("div", { class: "panel-mission-box" }));
+    this.actionsBox = this.body.appendChild(el("div", { class: "panel-actions" }));
+    this.commandsBox = this.body.appendChild(el("div", { class: "panel-commands" }));
     // The readings last: commands and their states stay in view without scrolling.
-    this.readingsBox = this.panel.appendChild(el("div", { class: "panel-readings" }));
+    this.readingsBox = this.body.appendChild(el("div", { class: "panel-readings" }));
     var self = this;
     map.on("click", function (e) { self.mapClicked(e.latlng); });
+    map.on("zoomend moveend", function () { S.fleetConsole.declutter(self); });
+    window.addEventListener("resize", function () { self.fitWindow(); });
+    this.fitWindow();
+    this.overlays = new S.fleetConsole.Overlays(this);
+    this.list = new S.fleetConsole.VesselList(this, this.listBox);
     document.addEventListener("keydown", function (e) {
       if (e.key === "Escape") { self.cancelPick(); }
     });
@@ -50,6 +63,18 @@
   }
 
   FleetMap.prototype.now = function () { return Date.now() + this.clockOffsetMs; };
+
+  // The map and its side column fill the window from where they start down to its bottom.
+  FleetMap.prototype.fitWindow = function () {
+    var layout = this.map.getContainer().closest(".fleet-map-layout");
+    if (!layout) { return; }
+    var top = layout.getBoundingClientRect().top + window.scrollY;
+    var height = Math.max(MIN_HEIGHT_PX, window.innerHeight - top - 8);
+    if (layout.style.height !== height + "px") {
+      layout.style.height = height + "px";
+      this.map.invalidateSize();
+    }
+  };
 
   // Age of the last fix, and the state by the vessel's own period (the server's rule, kept
   // current between polls: a 304 answers nothing about time passing).
@@ -110,6 +135,8 @@
     Object.keys(this.markers).forEach(function (slug) {
       if (!seen[slug]) { self.map.removeLayer(self.markers[slug]); delete self.markers[slug]; }
     });
+    Object.keys(this.vessels).forEach(function (slug) { if (!seen[slug]) { delete self.vessels[slug]; } });
+    this.overlays.fleetUpdated();
     if (!this.fitted) {
       var points = Object.keys(this.markers).map(function (s) { return self.markers[s].getLatLng(); });
       if (points.length) {
@@ -135,7 +162,15 @@
         title: v.name,
         riseOnHover: true,
       });
-      marker.on("click", function () { self.select(v.slug); });
+      marker.on("click", function (e) {
+        // The "+3" on a label stands for the vessels it hides: a click there zooms in to them.
+        var target = e.originalEvent && e.originalEvent.target;
+        if (target && target.closest && target.closest(".label-more")) {
+          S.fleetConsole.zoomToGroup(self, v.slug);
+          return;
+        }
+        self.select(v.slug);
+      });
       marker.addTo(this.map);
       this.markers[v.slug] = marker;
     } else {
@@ -150,7 +185,9 @@
     var shape = heading === null || heading === undefined
       ? '<circle r="7" />'
       : '<path d="M0,-12 L7.5,9 L0,4.5 L-7.5,9 Z" transform="rotate(' + Number(heading) + ')" />';
-    var label = el("div", { class: "vessel-label" }, [el("b", { text: v.name }), " ", el("span", { class: "vessel-age" })]);
+    var label = el("div", { class: "vessel-label" }, [
+      el("b", { text: v.name }), " ", el("span", { class: "vessel-age" }), el("span", { class: "label-more", hidden: "" }),
+    ]);
     return (
       '<svg class="vessel-arrow" viewBox="-13 -13 26 26" width="26" height="26" style="fill:' + colour +
       '">' + shape + "</svg>" + label.outerHTML
@@ -177,7 +214,23 @@
       return self.state(self.vessels[slug]).status;
     })]);
     if (key !== this.headKey) { this.headKey = key; this.renderHead(); }
+    this.list.render();
+    this.renderMission();
     this.updateAges();
+    S.fleetConsole.declutter(this);
+  };
+
+  // New trails or missions: the list and the panel show the missions' progress.
+  FleetMap.prototype.overlaysChanged = function () { this.tick(); };
+
+  // The selected vessel's mission, rebuilt only when what it says changes.
+  FleetMap.prototype.renderMission = function () {
+    var box = this.overlays.missionBox(this.selected);
+    var key = box ? box.outerHTML : "";
+    if (key === this.missionKey) { return; }
+    this.missionKey = key;
+    this.missionBox.innerHTML = "";
+    if (box) { this.missionBox.appendChild(box); }
   };
 
   FleetMap.prototype.ageSpan = function (since, suffix) {
@@ -191,7 +244,7 @@
     });
   };
 
-  FleetMap.prototype.select = function (slug) {
+  FleetMap.prototype.select = function (slug, options) {
     this.selected = slug;
     this.pending = null;
     this.pick = null;
@@ -204,9 +257,12 @@
     this.tick();
     this.renderActions();
     this.renderCommands();
+    this.overlays.drawAll(); // the selected vessel's mission is drawn stronger, its waypoint named
+    this.body.scrollTop = 0;
     if (slug) {
       var marker = this.markers[slug];
-      if (marker && !this.map.getBounds().contains(marker.getLatLng())) { this.map.panTo(marker.getLatLng()); }
+      var centre = options && options.centre;
+      if (marker && (centre || !this.map.getBounds().contains(marker.getLatLng()))) { this.map.panTo(marker.getLatLng()); }
       this.pollCommands();
     }
   };
@@ -219,21 +275,7 @@
     box.innerHTML = "";
     this.readingsBox.innerHTML = "";
     if (!this.selected) {
-      box.appendChild(el("h2", { text: "Fleet" }));
-      var list = el("ul", { class: "fleet-list" });
-      this.order.forEach(function (slug) {
-        var v = self.vessels[slug], st = self.state(v);
-        list.appendChild(el("li", {}, [
-          el("button", { type: "button", class: "link-button", "data-slug": slug, onclick: function () { self.select(slug); } }, [
-            el("span", { class: "status-dot status-" + st.status.replace(" ", "-") }),
-            el("b", { text: v.name }),
-            el("span", { class: "muted" }, [" " + st.status + (v.last_fix ? " · " : ""), v.last_fix ? self.ageSpan(v.last_fix.time) : null]),
-          ]),
-        ]));
-      });
-      if (!this.order.length) { list.appendChild(el("li", { class: "muted", text: "No active vessels." })); }
-      box.appendChild(list);
-      box.appendChild(el("p", { class: "muted help", text: "Click a vessel for its readings, commands and track." }));
+      box.appendChild(el("p", { class: "muted help", text: "Click a vessel on the map or in the list for its readings, mission, commands and track." }));
       return;
     }
     var v = this.vessels[this.selected], st = this.state(v), fix = v.last_fix;
