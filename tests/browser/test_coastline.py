@@ -115,12 +115,20 @@ def test_tiles_that_fail_are_dropped_for_the_coastline_with_a_word_on_the_map(
     # No more tile requests while the coastline shows.
     tiles_asked = len([u for u in requested(browser) if "/no-tiles-here/" in u])
     js(browser, f"{BASE}.map.panBy([300, 200], {{animate: false}})")
-    wait_for(
-        browser,
-        lambda b: js(
-            b,
-            f"return !{BASE}.coastline._wanted.some(k => {BASE}.coastline._drawn[k] === 'loading')",
-        ),
-    )
+    wait_for(browser, lambda b: js(b, f"return {BASE}.coastline.settled()"))
     assert len([u for u in requested(browser) if "/no-tiles-here/" in u]) == tiles_asked
     shot(browser, "coastline-3-tiles-unavailable")
+    # They are tried again in a few minutes.
+    wait_s = js(browser, f"return ({BASE}.retryAt - Date.now()) / 1000")
+    assert 200 < wait_s <= 300
+
+    # When the retry finds them back (here: any image the server has), they replace the coastline.
+    working = live_server.url + "/static/leaflet/images/layers.png?{z}/{x}/{y}"
+    js(browser, f"{BASE}.config.tiles_url = '{working}'; {BASE}.tryTiles()")
+    wait_for(
+        browser, lambda b: b.find_element(By.ID, "fleet-map").get_attribute("data-base") == "tiles"
+    )
+    assert not banner.is_displayed()
+    assert not browser.find_elements(By.CSS_SELECTOR, "#fleet-map .leaflet-coastline-pane path")
+    attribution = browser.find_element(By.CSS_SELECTOR, "#fleet-map .leaflet-control-attribution")
+    assert "Test tiles" in attribution.text and "Natural Earth" not in attribution.text

@@ -307,6 +307,7 @@
         // The index's URL may carry a hash (manifest storage); the cells sit beside it.
         var base = self._indexUrl.replace(/[^/]*$/, "") + index.base + level.name + "/";
         self._level = level.name;
+        self.zoom = zoom; // the zoom the cells below were chosen for
         self._wanted = cellsInView(level, map.getBounds().pad(0.1)).map(function (cell) {
           var key = level.name + "/" + cell;
           if (!self._drawn[key]) { self._load(map, key, base + cell + ".json"); }
@@ -331,6 +332,12 @@
         if (self._drawn[key] === "loading") { delete self._drawn[key]; }
         window.console.warn("coastline cell:", e);
       });
+    },
+    // True when every cell the view wants is drawn (the tests wait for it).
+    settled: function () {
+      var drawn = this._drawn;
+      return !!this._map && this.zoom === this._map.getZoom() &&
+        this._wanted.every(function (k) { return drawn[k] && drawn[k] !== "loading"; });
     },
     // Once the level in view is all drawn, the other levels go (no bare sea in between).
     _prune: function () {
@@ -386,6 +393,7 @@
       map.removeLayer(tiles);
       self.tiles = null;
       self.offline(self.coastline ? "map tiles unavailable: showing the offline coastline" : "map tiles unavailable");
+      self.retryAt = Date.now() + S.TILE_RETRY_MS;
       window.setTimeout(function () { self.tryTiles(); }, S.TILE_RETRY_MS);
     });
     tiles.addTo(map);
