@@ -7,6 +7,9 @@ from typing import Any
 
 from django.conf import settings
 from django.http import HttpRequest
+from django.templatetags.static import static
+
+COASTLINE_INDEX = "vessels/vendor/naturalearth/index.json"
 
 
 def maps(request: HttpRequest) -> dict[str, Any]:
@@ -18,5 +21,8 @@ def maps(request: HttpRequest) -> dict[str, Any]:
             "attribution": settings.MAP_TILES_ATTRIBUTION,
             "center": list(leaflet.get("DEFAULT_CENTER", (0.0, 0.0))),
             "zoom": leaflet.get("DEFAULT_ZOOM", 9),
+            # The offline coastline's index (vessels/static/vessels/vendor/naturalearth/): drawn
+            # when there are no tiles or they fail; its cells are fetched from beside it.
+            "coastline": static(COASTLINE_INDEX),
         }
     }

@@ -255,8 +255,13 @@ STATIC_ROOT = Path(os.environ.get("STATIC_ROOT", DATA_DIR / "static"))
 STATIC_ROOT.mkdir(parents=True, exist_ok=True)  # WhiteNoise expects it even before collectstatic
 STORAGES = {
     "default": {"BACKEND": "django.core.files.storage.FileSystemStorage"},
-    "staticfiles": {"BACKEND": "whitenoise.storage.CompressedStaticFilesStorage"},
+    # Hashed names after collectstatic, cached for ever (fleet/static_storage.py).
+    "staticfiles": {"BACKEND": "fleet.static_storage.HashedStaticFiles"},
 }
+# Served with a year's cache: Django's hashed names (12 hex digits before the extension) and the
+# offline coastline's cells, in a folder named after the hash of them all (vessels/static/
+# vessels/vendor/naturalearth/README.md); both change name whenever they change.
+WHITENOISE_IMMUTABLE_FILE_TEST = r"\.[0-9a-f]{12}\.[^/]+$|/vendor/naturalearth/[0-9a-f]{12}/"
 # Without collectstatic (tests, a quick runserver) serve straight from the apps' folders.
 WHITENOISE_USE_FINDERS = env_bool("WHITENOISE_USE_FINDERS", True)
 LOGIN_URL = "admin:login"

@@ -445,7 +445,11 @@ def test_the_fleet_map_draws_without_a_reachable_tile_server(
     fix_ingest(vessel=vessel_a, records=[make_fix(time=timezone.now().isoformat())])
     log_in(browser, live_server, operator_user)
     wait_for(browser, lambda b: fleet_ready(b) and "spab" in on_the_map(b))
-    assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map .leaflet-tile")  # tried them
+    # Tried them, then gave up on them for the offline coastline (tests/browser/test_coastline.py).
+    wait_for(
+        browser,
+        lambda b: b.find_element(By.ID, "fleet-map").get_attribute("data-base") == "coastline",
+    )
     assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map .graticule-label")
     assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map .leaflet-control-scale")
     shot(browser, "fleet-8-unreachable-tiles")

@@ -1,7 +1,7 @@
 // Shoreside map basics, shared by every map page (fleet map, track view, mission planner):
-// the tile layer from the page's map-config (none when MAP_TILES_URL is empty), a lat/lon
-// graticule and the coordinates under the cursor (so a map with no tiles at sea is still a
-// chart), great-circle distance and bearing, and small formatters. Plain Leaflet, no build step.
+// the tile layer from the page's map-config, the offline coastline when there are no tiles
+// (MAP_TILES_URL empty, or the tiles fail), a lat/lon graticule and the coordinates under the
+// cursor (so a map with no tiles at sea is still a chart), great-circle distance and bearing, and small formatters. Plain Leaflet, no build step.
 (function () {
   "use strict";
   var S = (window.Shoreside = window.Shoreside || {});
@@ -202,14 +202,210 @@
     },
   });
 
-  // Tiles (if any), graticule and cursor position on a map made by django-leaflet's tag.
+  // The offline coastline (issue 18 §1): Natural Earth land, drawn under everything when there
+  // are no tiles (MAP_TILES_URL empty, or the tile server does not answer). Static files made by
+  // `manage.py build_coastline` (see vessels/static/vessels/vendor/naturalearth/README.md): an
+  // index, then per level the world or 5°×5° cells, only those in view fetched.
+  var COAST_PANE = "coastline";
+  var LAND_STYLE = { stroke: false, fill: true, fillColor: "#f3efe2", fillOpacity: 1, interactive: false };
+  var COAST_STYLE = { color: "#6d7d8b", weight: 1.2, opacity: 0.9, fill: false, interactive: false };
+  var TILE_ERRORS_IN_A_ROW = 4; // then the tiles count as unavailable
+  S.TILE_RETRY_MS = 5 * 60 * 1000; // tiles tried again after this long (a test may shorten it)
+
+  // One fetch per URL for every map of the page; a failed one is forgotten, tried on the next move.
+  var fetched = {};
+  function fetchJSON(url) {
+    if (!fetched[url]) {
+      fetched[url] = fetch(url, { credentials: "same-origin" }).then(function (r) {
+        if (!r.ok) { throw new Error(url + ": HTTP " + r.status); }
+        return r.json();
+      });
+      fetched[url].catch(function () { delete fetched[url]; });
+    }
+    return fetched[url];
+  }
+
+  // A TopoJSON topology's `land` and `coastline` as Leaflet latlngs ([lat, lon]).
+  S.topoDecode = function (topo) {
+    var t = topo.transform;
+    var arcs = topo.arcs.map(function (arc) {
+      var x = 0, y = 0;
+      return arc.map(function (p) {
+        if (!t) { return [p[1], p[0]]; }
+        x += p[0]; y += p[1];
+        return [y * t.scale[1] + t.translate[1], x * t.scale[0] + t.translate[0]];
+      });
+    });
+    function line(indexes) {
+      var out = [];
+      indexes.forEach(function (i) {
+        var arc = i >= 0 ? arcs[i] : arcs[~i].slice().reverse();
+        for (var k = out.length ? 1 : 0; k < arc.length; k++) { out.push(arc[k]); }
+      });
+      return out;
+    }
+    function geometry(g) {
+      if (!g) { return []; }
+      if (g.type === "Polygon") { return [g.arcs.map(line)]; }
+      if (g.type === "MultiPolygon") { return g.arcs.map(function (p) { return p.map(line); }); }
+      if (g.type === "LineString") { return [line(g.arcs)]; }
+      if (g.type === "MultiLineString") { return g.arcs.map(line); }
+      return [];
+    }
+    return { land: geometry(topo.objects.land), coast: geometry(topo.objects.coastline) };
+  };
+
+  function cellName(lat, lon) {
+    return (lat < 0 ? "s" : "n") + Math.abs(lat) + (lon < 0 ? "w" : "e") + Math.abs(lon);
+  }
+
+  // The index's cells of `level` that the bounds touch.
+  function cellsInView(level, bounds) {
+    if (!level.cell) { return level.cells.slice(); }
+    var have = level.have || (level.have = new Set(level.cells)), c = level.cell, found = [];
+    var south = Math.max(-90, Math.floor(bounds.getSouth() / c) * c), north = Math.min(90, bounds.getNorth());
+    var west = Math.max(-180, Math.floor(bounds.getWest() / c) * c), east = Math.min(180, bounds.getEast());
+    for (var lat = south; lat < north; lat += c) {
+      for (var lon = west; lon < east; lon += c) {
+        if (have.has(cellName(lat, lon))) { found.push(cellName(lat, lon)); }
+      }
+    }
+    return found;
+  }
+
+  var Coastline = L.Layer.extend({
+    options: { attribution: "Natural Earth" },
+    initialize: function (indexUrl) {
+      this._indexUrl = indexUrl;
+      this._drawn = {}; // "10m/s35e115": "loading" or its layer
+      this.loaded = []; // what was drawn, in order (the tests read it)
+    },
+    onAdd: function (map) {
+      if (!map.getPane(COAST_PANE)) {
+        // Above the tile pane (200), below the overlay pane (400) with tracks, routes and markers.
+        var pane = map.createPane(COAST_PANE);
+        pane.style.zIndex = 250;
+        pane.style.pointerEvents = "none";
+      }
+      this._renderer = this._renderer || L.svg({ pane: COAST_PANE, padding: 0.3 });
+      this._group = L.layerGroup().addTo(map);
+      map.on("moveend", this._update, this);
+      this._update();
+    },
+    onRemove: function (map) {
+      map.off("moveend", this._update, this);
+      map.removeLayer(this._group);
+      this._drawn = {};
+    },
+    _update: function () {
+      var self = this, map = this._map;
+      if (!map) { return; }
+      fetchJSON(this._indexUrl).then(function (index) {
+        if (self._map !== map) { return; }
+        var zoom = map.getZoom(), level = index.levels[0];
+        index.levels.forEach(function (l) { if (l.minzoom <= zoom) { level = l; } });
+        // The index's URL may carry a hash (manifest storage); the cells sit beside it.
+        var base = self._indexUrl.replace(/[^/]*$/, "") + index.base + level.name + "/";
+        self._level = level.name;
+        self.zoom = zoom; // the zoom the cells below were chosen for
+        self._wanted = cellsInView(level, map.getBounds().pad(0.1)).map(function (cell) {
+          var key = level.name + "/" + cell;
+          if (!self._drawn[key]) { self._load(map, key, base + cell + ".json"); }
+          return key;
+        });
+        self._prune();
+      }).catch(function (e) { window.console.warn("coastline index:", e); });
+    },
+    _load: function (map, key, url) {
+      var self = this;
+      this._drawn[key] = "loading";
+      fetchJSON(url).then(function (topo) {
+        if (self._map !== map || self._drawn[key] !== "loading") { return; }
+        var g = S.topoDecode(topo), renderer = self._renderer;
+        self._drawn[key] = L.layerGroup([
+          L.polygon(g.land, L.extend({ renderer: renderer }, LAND_STYLE)),
+          L.polyline(g.coast, L.extend({ renderer: renderer }, COAST_STYLE)),
+        ]).addTo(self._group);
+        self.loaded.push(key);
+        self._prune();
+      }, function (e) {
+        if (self._drawn[key] === "loading") { delete self._drawn[key]; }
+        window.console.warn("coastline cell:", e);
+      });
+    },
+    // True when every cell the view wants is drawn (the tests wait for it).
+    settled: function () {
+      var drawn = this._drawn;
+      return !!this._map && this.zoom === this._map.getZoom() &&
+        this._wanted.every(function (k) { return drawn[k] && drawn[k] !== "loading"; });
+    },
+    // Once the level in view is all drawn, the other levels go (no bare sea in between).
+    _prune: function () {
+      var drawn = this._drawn, level = this._level;
+      var ready = (this._wanted || []).every(function (k) { return drawn[k] && drawn[k] !== "loading"; });
+      if (!ready) { return; }
+      Object.keys(drawn).forEach(function (k) {
+        if (k.split("/")[0] !== level) {
+          if (drawn[k] !== "loading") { this._group.removeLayer(drawn[k]); }
+          delete drawn[k];
+        }
+      }, this);
+    },
+  });
+
+  // The map's base: the tiles while they load, else the coastline with a word on the map.
+  function BaseLayer(map, config) {
+    this.map = map;
+    this.config = config;
+    this.coastline = config.coastline ? new Coastline(config.coastline) : null;
+    this.tiles = null;
+    this.banner = L.DomUtil.create("div", "map-banner", map.getContainer());
+    this.banner.setAttribute("role", "status");
+    this.banner.hidden = true;
+    if (config.tiles_url) { this.tryTiles(); } else { this.offline(""); }
+  }
+  BaseLayer.prototype.offline = function (why) {
+    var map = this.map;
+    L.DomUtil.addClass(map.getContainer(), "no-tiles");
+    map.getContainer().setAttribute("data-base", "coastline");
+    if (this.coastline && !map.hasLayer(this.coastline)) { this.coastline.addTo(map); }
+    this.banner.textContent = why;
+    this.banner.hidden = !why;
+  };
+  BaseLayer.prototype.online = function () {
+    var map = this.map;
+    L.DomUtil.removeClass(map.getContainer(), "no-tiles");
+    map.getContainer().setAttribute("data-base", "tiles");
+    if (this.coastline && map.hasLayer(this.coastline)) { map.removeLayer(this.coastline); }
+    this.banner.hidden = true;
+  };
+  BaseLayer.prototype.tryTiles = function () {
+    var self = this, errors = 0, map = this.map;
+    var tiles = (this.tiles = L.tileLayer(this.config.tiles_url, { attribution: this.config.attribution, maxZoom: 19 }));
+    tiles.on("tileload", function () {
+      errors = 0;
+      if (map.getContainer().getAttribute("data-base") !== "tiles") { self.online(); }
+    });
+    tiles.on("tileerror", function () {
+      errors += 1;
+      if (errors < TILE_ERRORS_IN_A_ROW || !map.hasLayer(tiles)) { return; }
+      // No more requests to a server that does not answer: the layer goes, back in a while.
+      map.removeLayer(tiles);
+      self.tiles = null;
+      self.offline(self.coastline ? "map tiles unavailable: showing the offline coastline" : "map tiles unavailable");
+      self.retryAt = Date.now() + S.TILE_RETRY_MS;
+      window.setTimeout(function () { self.tryTiles(); }, S.TILE_RETRY_MS);
+    });
+    tiles.addTo(map);
+  };
+
+  // Every map's base layers, by the map element's id (the tests read them).
+  S.maps = {};
+
+  // Base layer (tiles or coastline), graticule and cursor position on a map made by django-leaflet's tag.
   S.baseMap = function (map) {
     var config = S.json("map-config");
-    if (config.tiles_url) {
-      L.tileLayer(config.tiles_url, { attribution: config.attribution, maxZoom: 19 }).addTo(map);
-    } else {
-      L.DomUtil.addClass(map.getContainer(), "no-tiles");
-    }
+    S.maps[map.getContainer().id] = new BaseLayer(map, config);
     new Graticule().addTo(map);
     new CursorPosition().addTo(map);
     return config;
