@@ -110,8 +110,7 @@ boat1=$!
 $py manage.py simulate_boat --server "$server" --key-file "$(key_file spab-2)" \
   --start=-32.0560,115.7400 --port "$((BOAT_PORT + 10))" >"$data/sim-spab-2.log" 2>&1 &
 pids+=($!)
-started "$boat1" "$data/sim-spab.log" "^boat at" "the boat spab"
-started "$!" "$data/sim-spab-2.log" "^boat at" "the boat spab-2"
+boat2=$!
 
 say "starting the glider bridge…"
 # The glider is a Shoreside of its own (as on its Pi): its own folder and SQLite database.
@@ -119,6 +118,8 @@ SHORESIDE_DATA_DIR="$data/glider" env -u DATABASE_URL $py manage.py simulate_gli
   --server "$server" --key-file "$(key_file glider)" --start=-32.0800,115.7000 \
   >"$data/sim-glider.log" 2>&1 &
 pids+=($!)
+started "$boat1" "$data/sim-spab.log" "^boat at" "the boat spab"
+started "$boat2" "$data/sim-spab-2.log" "^boat at" "the boat spab-2"
 started "$!" "$data/sim-glider.log" "glider at .* bridge pid" "the glider"
 
 sms_cmd="$PWD/.venv/bin/python $PWD/manage.py demo_sms"

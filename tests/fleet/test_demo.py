@@ -254,3 +254,15 @@ def test_a_port_that_is_not_a_number_is_refused(tmp_path: Path) -> None:
     )  # fmt: skip
     assert result.returncode == 1
     assert "PORT='80a' is not a port number" in result.stderr
+
+
+def test_simulate_glider_refuses_to_start_without_a_key_or_with_a_bad_start() -> None:
+    with pytest.raises(CommandError, match="give --key or --key-file"):
+        call_command("simulate_glider")
+    with pytest.raises(CommandError, match="--start must be lat,lon"):
+        call_command("simulate_glider", "--key", "k", "--start", "somewhere")
+
+
+def test_demo_sms_says_when_no_demo_is_running(tmp_path: Path) -> None:
+    with pytest.raises(CommandError, match=r"no modem simulator listening at .*demo\.sh` running"):
+        call_command("demo_sms", "+61400000001", "#STATUS", "--control", str(tmp_path / "x.sock"))
