@@ -102,6 +102,8 @@ started() {  # pid log what-it-says name
   say "$4 is slow to start (see $2)"
 }
 
+# Each vessel's log is new: `started` must not read the line of a previous run.
+rm -f "$data/sim-spab.log" "$data/sim-spab-2.log" "$data/sim-glider.log"
 say "starting boats…"
 $py manage.py simulate_boat --server "$server" --key-file "$(key_file spab)" \
   --start=-31.9790,115.8170 --port "$BOAT_PORT" >"$data/sim-spab.log" 2>&1 &
