@@ -2,7 +2,7 @@
 payload board, reporting to a Shoreside under the glider's vessel key.
 
     SHORESIDE_DATA_DIR=…/glider manage.py simulate_glider --server http://127.0.0.1:8000 \\
-        --key-file key-glider --start=-32.08,115.70 --control …/demo-modem.sock
+        --key-file key-glider --start=-32.08,115.70
 
 Run it with the *glider's* data folder (``SHORESIDE_DATA_DIR``): as on the glider's Pi, the
 bridge keeps its own database there (migrated here, and given the vessel if it has none), and
