@@ -49,6 +49,7 @@ from .codec import (
     escape,
 )
 from .errors import BodyError
+from .motion import Motion
 
 RETRY_INTERVAL_S = 2.0  # §10: resend after ~1.9–2.0 s
 ATTEMPTS = 3  # §10: three attempts in all
@@ -139,6 +140,7 @@ class SimConfig:
     reply_wait_s: float = RETRY_INTERVAL_S  # real seconds to wait for a reply that must come
     silence_wait_s: float = SILENCE_WAIT_S  # real seconds to watch for a reply that must not
     position: tuple[float, float] | None = (36.803, -121.788)  # Moss Landing (§8.3), or None
+    motion: Motion | None = None  # a glider that moves as commanded (instead of ``position``)
     ack_policy: Callable[[int, CommandPacket | None], int] = ack_all
     send_results: bool | None = None  # None: only if the payload asked (flag 0x08, §8.6)
     faults: Sequence[str] = ()
@@ -286,9 +288,16 @@ class CcSimulator:
         if wanted is None:
             # §8.6 [INF]: the C&C answers commands when the payload set "command ACK/NAK wanted"
             wanted = bool(self.payload_flags & ExtraInfo.COMMAND_ACK)
+        # Unanswered, a command counts as accepted (code 0) for the glider's motion.
+        code = (
+            self.config.ack_policy(sum(self.stats.results_sent.values()), packet) if wanted else 0
+        )
+        if packet is not None and self.config.motion is not None and code == 0:
+            doing = self.config.motion.obey(packet, self.clock.now())  # accepted: carried out
+            if doing:
+                self.trace(f"C&C glider: {doing}")
         if not wanted:
             return
-        code = self.config.ack_policy(sum(self.stats.results_sent.values()), packet)
         self.stats.results_sent[code] += 1
         # §8.6: type 0x8041 (no ACK wanted), from the C&C main task, tid from the counter.
         frame = Frame.make(
@@ -462,6 +471,8 @@ class CcSimulator:
     def _status_body(self) -> bytes:
         """Alternate the no-fix and fix forms of the request (§8.3, §16)."""
         position = self.config.position
+        if self.config.motion is not None:
+            position = self.config.motion.position(self.clock.now())
         if position is None or self.stats.polls % 2:
             return bytes(StatusRequest())
         when = self._start_time + timedelta(seconds=self.clock.now() - self._clock_start)

@@ -142,6 +142,7 @@ PURE = [
     "sms/level2/fields.py",
     "sms/level2/inner.py",
     "sms/level2/payload.py",
+    "sms/level2/motion.py",
     "sms/bridge/records.py",
     "sms/bridge/machine.py",
     "sms/bridge/shore_config.py",

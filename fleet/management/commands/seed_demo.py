@@ -47,18 +47,26 @@ OPERATOR_PERMS = {
     "sms": ["view_authorisednumber", "add_authorisednumber", "change_authorisednumber",
             "view_smsmessage"],
 }  # fmt: skip
-# A field user's phone that may command the demo glider (README: SMS control, sms_inject).
+# A field user's phone that may command the demo glider (docs/development.md: the demo glider; manage.py demo_sms).
 DEMO_NUMBER = "+61400000001"
 DEMO_VESSELS = [
     # slug, name, kind, start (lat, lon), telemetry period
-    ("spab", "SPAB", "mavlink", (-31.9790, 115.8170), 10),  # Matilda Bay, Swan River
-    ("spab-2", "SPAB 2", "mavlink", (-32.0560, 115.7400), 10),  # off Fremantle
-    ("glider", "Wave Glider", "wave_glider", (-32.0380, 115.3325), 300),  # original trials' area
+    # At sea off Fremantle (Gage Roads), where the offline coastline shows water around them.
+    ("spab", "SPAB", "mavlink", (-32.0200, 115.7000), 10),
+    ("spab-2", "SPAB 2", "mavlink", (-32.0500, 115.6800), 10),
+    # Off Fremantle, where the demo's live glider (simulate_glider) starts.
+    ("glider", "Wave Glider", "wave_glider", (-32.0800, 115.7000), 300),
 ]
 CHANNELS = [
     ("water_temp_c", "Water temperature", "°C", 10, 30),
     ("salinity_psu", "Salinity", "PSU", 30, 40),
     ("humidity_pct", "Hull humidity", "%", 0, 100),
+    # The live glider's payload board (sms/bridge/sensor_layouts.toml, record "stasis").
+    ("humidity_temp_c", "Hull temperature", "°C", 0, 50),
+    ("pressure_kpa", "Hull pressure", "kPa", 80, 120),
+    ("pressure_temp_c", "Pressure sensor temperature", "°C", 0, 50),
+    ("leak1", "Leak sensor 1", "", 0, 1),
+    ("leak2", "Leak sensor 2", "", 0, 1),
 ]
 HISTORY = dt.timedelta(hours=3)
 
