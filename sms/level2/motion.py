@@ -1,13 +1,14 @@
 """Where the simulated C&C's glider is: it moves as the Level-1 commands it receives say.
 
-The C&C simulator reports a position in every status request with a fix (level2.md §8.3).
-With a :class:`Motion` the position is no longer fixed: the glider follows a heading, steers
-for the last waypoint it was sent, or holds station, at a constant speed, as a Wave Glider
-does between commands. Only what a demo and its tests need: no current, no wave speed, no
-turning radius. Pure (no I/O); the simulator asks for the position with its own clock's time.
+The C&C simulator reports a position in every status request with a fix (§8.3; § as in
+docs/level2.md#section-numbers-in-the-code). With a :class:`Motion` the position is no longer
+fixed: the glider follows a heading, steers for the last waypoint it was sent, or holds
+station, at a constant speed, as a Wave Glider does between commands. Only what a demo and its
+tests need: no current, no wave speed, no turning radius. Pure (no I/O); the simulator asks for
+the position with its own clock's time.
 
-Command values (level2.md §11.1, as ``inner_commands.toml`` encodes them; a test checks that
-the two agree): 0x0008 follow fixed heading (heading u16 little-endian in parameter bytes 3–4),
+Command values (§11.1, as ``inner_commands.toml`` encodes them; a test checks that the two
+agree): 0x0008 follow fixed heading (heading u16 little-endian in parameter bytes 3–4),
 0x0002 hold station, 0x8000 new waypoint (latitude and longitude as minutes × 10⁴).
 """
 
