@@ -242,6 +242,22 @@ def test_the_track_opens_on_its_last_stretch_and_its_times_are_utc_in_a_perth_br
             apart = a[4] <= b[2] or b[4] <= a[2] or a[5] <= b[3] or b[5] <= a[3]
             assert apart, f"time labels {a[0]} and {b[0]} overlap"
 
+    # The plots' legend and the map's moment marker say UTC times too.
+    over = browser.find_element(By.CSS_SELECTOR, '#plots .plot[data-key="battery_v"] .u-over')
+    ActionChains(browser).move_to_element_with_offset(over, 0, 0).perform()
+    marker = wait_for(browser, lambda b: b.find_element(By.CSS_SELECTOR, "#track-map .time-marker"))
+    bucket, moment = js(
+        browser,
+        "var u = window.shoresideTrack.plots[0];"
+        " return [u.data[0][u.cursor.idx], u.posToVal(u.cursor.left, 'x')]",
+    )
+    legend = browser.find_element(
+        By.CSS_SELECTOR, "#plots .u-legend .u-series:first-child .u-value"
+    )
+    assert legend.text == f"{dt.datetime.fromtimestamp(bucket, dt.UTC):%Y-%m-%d %H:%M:%S} UTC"
+    label = marker.get_attribute("textContent")
+    assert label == f"{dt.datetime.fromtimestamp(int(moment), dt.UTC):%H:%M:%S}"
+
     # Typed in UTC, taken as UTC: an hour in the middle of the stretch holds 12 fixes.
     start, end = newest - dt.timedelta(hours=2), newest - dt.timedelta(hours=1)
     for field, when in (("range-from", start), ("range-to", end)):

@@ -32,7 +32,6 @@
       d.getUTCHours() === f[3] && d.getUTCMinutes() === f[4];
     return real ? d : null;
   }
-  S.utcInput = { parse: fromInput, format: toInput };
 
   function TrackPage(map, cfg) {
     this.map = map;
