@@ -1,18 +1,21 @@
-"""Command admin: queue through the catalog-validated form, cancel, read the transition log."""
+"""Command admin: queue through the catalog-validated form, cancel, read the transition log;
+a command's page follows its state live (state_view, commands/command_live.js)."""
 
 from __future__ import annotations
 
 import json
 from typing import Any
 
+from django.conf import settings
 from django.contrib import admin, messages
 from django.db.models import QuerySet
-from django.http import HttpRequest
+from django.http import Http404, HttpRequest, JsonResponse
+from django.urls import path
 from django.utils.html import format_html
 
 from commands.errors import CommandError
 from commands.forms import CommandForm
-from commands.lifecycle import OPEN
+from commands.lifecycle import FINAL, OPEN
 from commands.models import Command, CommandEvent, Source
 from commands.services import command_cancel, command_enqueue
 
@@ -38,9 +41,22 @@ class CommandEventInline(admin.TabularInline):
         return False
 
 
+def live_state(command: Command) -> dict[str, Any]:
+    """What a command's page compares to see that it moved on: status and transitions."""
+    return {
+        "status": command.status,
+        "events": command.events.count(),
+        "unfinished": command.status not in {s.value for s in FINAL},
+        "poll_s": settings.FLEET_MAP_POLL_S,
+    }
+
+
 @admin.register(Command)
 class CommandAdmin(admin.ModelAdmin):
     form = CommandForm
+    # A command's page carries #command-live (its state URL, status and poll period) for
+    # commands/command_live.js, which redraws the page while the command is unfinished.
+    change_form_template = "admin/commands/command/change_form.html"
     list_display = [
         "created_at",
         "vessel",
@@ -71,8 +87,36 @@ class CommandAdmin(admin.ModelAdmin):
     ]
 
     class Media:
-        js = ["commands/command_form.js"]
+        js = ["commands/command_form.js", "commands/command_live.js"]
         css = {"all": ["commands/status.css"]}
+
+    def get_urls(self) -> list[Any]:
+        state = self.admin_site.admin_view(self.state_view)
+        return [
+            path("<path:object_id>/state/", state, name="commands_command_state"),
+            *super().get_urls(),
+        ]
+
+    def state_view(self, request: HttpRequest, object_id: str) -> JsonResponse:
+        """Where a command stands, for its page to follow (commands/command_live.js): its
+        status, how many transitions it has had, and whether it can still change."""
+        command = self.get_object(request, object_id)
+        if command is None or not self.has_view_permission(request, command):
+            raise Http404
+        return JsonResponse(live_state(command))
+
+    def change_view(
+        self,
+        request: HttpRequest,
+        object_id: str,
+        form_url: str = "",
+        extra_context: dict[str, Any] | None = None,
+    ) -> Any:
+        command = self.get_object(request, object_id)
+        extra = dict(extra_context or {})
+        if command is not None:
+            extra["live_state"] = live_state(command)
+        return super().change_view(request, object_id, form_url, extra)
 
     def get_inlines(self, request: HttpRequest, obj: Command | None) -> list[Any]:
         return [CommandEventInline] if obj else []

@@ -145,7 +145,8 @@ class FleetMissionAdmin(MissionAdmin):
 
     def send_view(self, request: HttpRequest, pk: int) -> HttpResponse:
         """The mission page's Send: queues the mission only if the route the operator
-        confirmed (``confirmed``, JSON, filled in by planner.js) is the one saved."""
+        confirmed (``confirmed``, JSON, filled in by planner.js) is the one saved, then shows
+        the command's page (live) to an operator who may see commands."""
         if request.method != "POST":
             return HttpResponseNotAllowed(["POST"])
         if not self.has_send_permission(request):
@@ -177,8 +178,12 @@ class FleetMissionAdmin(MissionAdmin):
             )
         except CommandError as exc:
             messages.error(request, f"{mission}: {exc.message}")
-        else:
-            messages.success(request, f"{mission}: queued as command {command.uid}.")
+            return redirect("admin:vessels_mission_change", mission.pk)
+        messages.success(request, f"{mission}: queued as command {command.uid}.")
+        # The command's page, which follows it live (queued, sent, acknowledged, done), for
+        # an operator who may see commands; the others stay on the mission.
+        if request.user.has_perm("commands.view_command"):
+            return redirect("admin:commands_command_change", command.pk)
         return redirect("admin:vessels_mission_change", mission.pk)
 
     @admin.action(description="Send selected missions to their vessel", permissions=["send"])

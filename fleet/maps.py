@@ -6,6 +6,7 @@ Reads only (no writes): the pages' data comes from the JSON endpoints, this is t
 
 from __future__ import annotations
 
+import datetime as dt
 from typing import Any
 
 from django.conf import settings
@@ -16,14 +17,19 @@ from django.urls import reverse
 
 from edge_client.contract.status import OPEN, UNFINISHED, Status
 from fleet.map_actions import map_actions
+from telemetry.api.maps import TRACK_DEFAULT_POINTS
 from telemetry.models import SensorChannel
+from telemetry.track import latest_stretch
 from vessels.display import BATTERY, state_channels_config
-from vessels.models import OVERDUE_PERIODS, VesselKind
+from vessels.models import OVERDUE_PERIODS, Vessel, VesselKind
 
 SLUG = "__slug__"  # placeholder the scripts replace with a vessel's slug
 UID = "__uid__"
 # The fleet map's side panel lists this many of the vessel's newest commands.
 PANEL_COMMANDS = 8
+# The track page opens on the vessel's last run of reports, this long at most and at least.
+LAST_STRETCH_MAX = dt.timedelta(hours=24)
+LAST_STRETCH_MIN = dt.timedelta(minutes=10)
 
 
 def sensor_channels() -> dict[str, dict[str, Any]]:
@@ -43,6 +49,10 @@ def page_channels() -> dict[str, dict[str, Any]]:
     for key in states.keys() & sensors.keys():
         channels[key] = {**states[key], **sensors[key]}
     return channels
+
+
+def _iso(when: dt.datetime) -> str:
+    return when.astimezone(dt.UTC).isoformat().replace("+00:00", "Z")
 
 
 def can_view_fleet(user: AbstractBaseUser) -> bool:
@@ -101,14 +111,35 @@ def fleet_map_config(request: HttpRequest) -> dict[str, Any]:
     }
 
 
-def track_page_config(request: HttpRequest, slug: str) -> dict[str, Any]:
-    """The track page's config: the vessel's data endpoints and the channel labels."""
+def last_stretch_range(vessel: Vessel) -> tuple[dt.datetime, dt.datetime] | None:
+    """The track page's first range: the vessel's last run of reports (up to
+    LAST_STRETCH_MAX, ending at its newest fix) in whole minutes, as the page's inputs show
+    them, and at least LAST_STRETCH_MIN; None when it has no fixes."""
+    stretch = latest_stretch(
+        vessel=vessel, max_span=LAST_STRETCH_MAX, max_points=TRACK_DEFAULT_POINTS
+    )
+    if stretch is None:
+        return None
+    first, last = stretch
+    minute = dt.timedelta(minutes=1)
+    start = first.replace(second=0, microsecond=0)
+    # The minute after the newest fix: the range is half-open, so the fix stays in it.
+    end = last.replace(second=0, microsecond=0) + minute
+    return min(start, end - LAST_STRETCH_MIN), end
+
+
+def track_page_config(request: HttpRequest, vessel: Vessel) -> dict[str, Any]:
+    """The track page's config: the vessel's data endpoints, the channel labels and its
+    last run of reports (the page's first range)."""
+    slug = vessel.slug
 
     def url(name: str) -> str:
         return reverse(name, kwargs={"slug": slug})
 
+    stretch = last_stretch_range(vessel)
     return {
         "slug": slug,
+        "lastStretch": stretch and {"from": _iso(stretch[0]), "to": _iso(stretch[1])},
         "trackUrl": url("vessel-track"),
         "nearestUrl": url("vessel-fix-nearest"),
         "seriesUrl": url("vessel-series"),

@@ -12,8 +12,11 @@ from django.shortcuts import render
 from fleet.maps import can_view_track, track_page_config
 from vessels.selectors import vessel_by_slug
 
-# The range the track page opens with; the operator picks 6 h, 24 h, 7 days or a custom one.
-DEFAULT_RANGE = "24h"
+# The range the track page opens with: the vessel's last run of reports ("last", at most
+# LAST_STRETCH_MAX long, fleet.maps.last_stretch_range); 24 h back from now for a vessel
+# with no fixes. The operator may pick 6 h, 24 h, 7 days or a custom one.
+DEFAULT_RANGE = "last"
+NO_FIXES_RANGE = "24h"
 
 
 @login_required
@@ -23,11 +26,12 @@ def track_page(request: HttpRequest, slug: str) -> HttpResponse:
     if not (request.user.is_staff and can_view_track(request.user)):
         raise PermissionDenied
     vessel = vessel_by_slug(slug)
+    config = track_page_config(request, vessel)
     context = {
         **admin.site.each_context(request),
         "title": f"{vessel.name}: track",
         "vessel": vessel,
-        "page_config": track_page_config(request, vessel.slug),
-        "default_range": DEFAULT_RANGE,
+        "page_config": config,
+        "default_range": DEFAULT_RANGE if config["lastStretch"] else NO_FIXES_RANGE,
     }
     return render(request, "fleet/track.html", context)

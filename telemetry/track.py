@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from telemetry import sql
+from telemetry.models import Fix
 from telemetry.overview import BATTERY, RAW, WIDTHS, Summary, cover, finest_level_within
 from telemetry.series import Downsampler, bucket_width
 from telemetry.simplify import Point, Segment, simplify
@@ -70,6 +71,31 @@ def sketch(*, vessel: Vessel, start: dt.datetime, end: dt.datetime, max_points: 
     dirty = sql.dirty_minutes(vessel.pk, lo, hi)
     points, gaps, count = _candidates(vessel.pk, lo, hi, level, gap_s, dirty)
     return Track(count, gap_s, simplify(points, max_points=max_points, gaps=gaps))
+
+
+def latest_stretch(
+    *, vessel: Vessel, max_span: dt.timedelta, max_points: int
+) -> tuple[dt.datetime, dt.datetime] | None:
+    """(first, last) fix time of the vessel's last run of reports, at most ``max_span`` long
+    and ending at its newest fix; None when it has no fixes.
+
+    The run is the last segment of the track over ``max_span`` before the newest fix, read as
+    the map reads it (the overview, broken at silences longer than ``gap_seconds``): with the
+    map's ``max_points``, the run starts on its real first fix.
+    """
+    newest = (
+        Fix.objects.filter(vessel=vessel)
+        .order_by("-recorded_at")
+        .values_list("recorded_at", flat=True)
+        .first()
+    )
+    if newest is None:
+        return None
+    end = newest + dt.timedelta(seconds=1)  # the range is half-open: [start, end)
+    result = track(vessel=vessel, start=end - max_span, end=end, max_points=max_points)
+    if not result.segments:
+        return newest, newest
+    return sql.from_epoch(result.segments[-1][0][0]), newest
 
 
 def _candidates(

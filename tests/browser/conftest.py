@@ -16,8 +16,8 @@ CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 CHROMEDRIVER = os.environ.get("CHROMEDRIVER", "/usr/bin/chromedriver")
 
 
-@pytest.fixture(scope="session")
-def browser() -> Iterator[object]:
+def _chromium(env: dict[str, str] | None = None) -> Iterator[object]:
+    """A headless chromium under chromedriver; ``env`` adds to the browser's environment."""
     if not (shutil.which(CHROMIUM) and shutil.which(CHROMEDRIVER)):
         message = "needs Debian's chromium and chromium-driver (apt-get install, see .ci/run)"
         if os.environ.get("SHORESIDE_REQUIRE_BROWSER") == "1":
@@ -43,13 +43,29 @@ def browser() -> Iterator[object]:
         f"--user-data-dir={profile}",
     ):
         options.add_argument(flag)
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    service = Service(CHROMEDRIVER, env={**os.environ, **env} if env else None)
+    driver = webdriver.Chrome(service=service, options=options)
     driver.implicitly_wait(5)
     try:
         yield driver
     finally:
         driver.quit()
         shutil.rmtree(profile, ignore_errors=True)
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[object]:
+    yield from _chromium()
+
+
+# An operator in Western Australia: the browser's clock is UTC+8 (no daylight saving), so a
+# page that let the browser's time zone in shows times eight hours off.
+PERTH = "Australia/Perth"
+
+
+@pytest.fixture(scope="session")
+def perth_browser() -> Iterator[object]:
+    yield from _chromium({"TZ": PERTH})
 
 
 # Screenshots of every step are test artifacts: what an operator sees. SHORESIDE_SCREENSHOTS

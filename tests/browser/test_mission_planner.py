@@ -298,3 +298,130 @@ def test_an_impossible_row_and_an_over_long_leg_are_marked_live(
     problems = browser.find_element(By.ID, "planner-problems").text
     assert "longer than the limit of 50.0 km" in problems
     assert "row 2: latitude 95 is not within -90…90" in problems
+
+
+def start_leg(browser) -> list | None:
+    """The dashed leg to waypoint 1 as drawn: [[lat, lon], [lat, lon]], or None."""
+    return js(
+        browser,
+        "var found = null; window.shoresidePlanner.layer.eachLayer(function (l) {"
+        " if (l.options && l.options.className === 'planner-start-leg') {"
+        "  found = l.getLatLngs().map(function (p) { return [p.lat, p.lng]; }); } });"
+        " return found;",
+    )
+
+
+def row_input(browser, kind: str, row: int):
+    return browser.find_elements(By.CSS_SELECTOR, f"#planner-list .planner-{kind}-input")[row]
+
+
+def test_the_map_comes_first_holds_and_speeds_are_set_in_rows_and_the_leg_to_waypoint_1_is_drawn(
+    browser, live_server, planner_user, vessel_a: Vessel, make_fix
+) -> None:
+    fix_ingest(vessel=vessel_a, records=[make_fix(lat=-31.9790, lon=115.8170)])
+    mission = five_waypoint_mission(vessel_a)
+    log_in(browser, live_server, planner_user)
+    browser.get(f"{live_server.url}/admin/vessels/mission/{mission.pk}/change/")
+    wait_for(browser, lambda b: js(b, "return !!window.shoresidePlanner"))
+    reviewed(browser)
+    # The map above the name and the notes.
+    top = lambda css: browser.find_element(By.CSS_SELECTOR, css).rect["y"]  # noqa: E731
+    assert top("#mission-map") < top("input[name=name]") < top("textarea[name=notes]")
+    shot(browser, "planner-6-map-first")
+
+    # No home: the dashed leg runs from the vessel's last fix to waypoint 1.
+    first = mission.items.order_by("seq").first()
+    assert start_leg(browser) == [
+        [pytest.approx(-31.9790), pytest.approx(115.8170)],
+        [pytest.approx(first.lat), pytest.approx(first.lon)],
+    ]
+    legs_shown = browser.find_elements(By.CSS_SELECTOR, "#planner-list .planner-leg")
+    assert legs_shown[0].text == "from SPAB 150 m"
+
+    # Hold and speed typed in waypoint 2's row: the inline row (the form) takes them, the
+    # input keeps the focus while the map and figures redraw, and the totals count the hold.
+    hold = row_input(browser, "hold", 1)
+    hold.clear()
+    hold.send_keys("45")
+    wait_for(browser, lambda b: "(holds 45 s)" in b.find_element(By.ID, "planner-total").text)
+    assert browser.find_element(By.NAME, "items-1-hold_s").get_attribute("value") == "45"
+    assert js(browser, "return document.activeElement.dataset.for") == "items-1-hold_s"
+    speed = row_input(browser, "speed", 1)
+    speed.send_keys("3")
+    reviewed(browser)
+    assert browser.find_element(By.NAME, "items-1-speed_mps").get_attribute("value") == "3"
+    wait_for(
+        browser, lambda b: js(b, "return window.shoresidePlanner.review.legs[1].speed_mps") == 3
+    )
+
+    # A home: the dashed leg now runs from there.
+    for name, value in (("home_lat", "-31.9800"), ("home_lon", "115.8150")):
+        box = browser.find_element(By.NAME, name)
+        box.clear()
+        box.send_keys(value)
+    wait_for(browser, lambda b: start_leg(b)[0] == [pytest.approx(-31.98), pytest.approx(115.815)])
+    wait_for(
+        browser,
+        lambda b: b.find_elements(By.CSS_SELECTOR, "#planner-list .planner-leg")[0].text.startswith(
+            "from home "
+        ),
+    )
+    js(browser, "document.querySelector('fieldset.planner').scrollIntoView()")
+    shot(browser, "planner-7-hold-speed-home-leg")
+
+    browser.find_element(By.NAME, "_continue").click()
+    wait_for(browser, lambda b: "was changed successfully" in b.page_source)
+    second = Mission.objects.get(pk=mission.pk).items.order_by("seq")[1]
+    assert (second.hold_s, second.speed_mps) == (45, 3.0)
+    assert Mission.objects.get(pk=mission.pk).home == (-31.98, 115.815)
+
+
+def test_after_send_the_browser_is_on_the_commands_page_and_follows_it_live(
+    browser, live_server, vessel_a: Vessel, make_fix, boat_a, settings
+) -> None:
+    settings.FLEET_MAP_POLL_S = 1
+    fix_ingest(vessel=vessel_a, records=[make_fix(lat=-31.9790, lon=115.8170)])
+    mission = five_waypoint_mission(vessel_a)
+    user = make_user("max", [*PLANNER_PERMS, "commands.view_command"])
+    log_in(browser, live_server, user)
+    open_planner(browser, f"{live_server.url}/admin/vessels/mission/{mission.pk}/change/")
+    reviewed(browser)
+    js(browser, "window.scrollTo(0, 0)")
+    browser.find_element(By.CSS_SELECTOR, ".send-mission button").click()
+    text, alert = alert_text(browser)
+    assert text.startswith("Send to SPAB: 5 waypoints")
+    alert.accept()
+    command = wait_for(browser, lambda b: Command.objects.first())
+    wait_for(
+        browser, lambda b: b.current_url.endswith(f"/admin/commands/command/{command.pk}/change/")
+    )
+    assert "queued as command" in browser.page_source
+
+    def status(b) -> str:
+        return b.find_element(By.CSS_SELECTOR, ".field-status_badge .command-status").text
+
+    assert status(browser) == "queued"
+    assert "following it live" in browser.find_element(By.ID, "command-live").text
+    js(browser, "window.notReloaded = true")
+    shot(browser, "send-3-command-queued")
+
+    # The boat fetches it, acknowledges it, reports it done: the page follows, no reload.
+    assert boat_a.get("/api/v1/boat/commands/").status_code == 200
+    wait_for(browser, lambda b: status(b) == "sent")
+    ack = f"/api/v1/boat/commands/{command.uid}/ack/"
+    assert boat_a.post(ack, {"status": "acknowledged"}, format="json").status_code == 200
+    wait_for(browser, lambda b: status(b) == "acknowledged")
+    shot(browser, "send-4-command-acknowledged")
+    assert (
+        boat_a.post(
+            ack, {"status": "done", "detail": "mission complete"}, format="json"
+        ).status_code
+        == 200
+    )
+    wait_for(browser, lambda b: status(b) == "done")
+    assert js(browser, "return window.notReloaded") is True
+    live = browser.find_element(By.ID, "command-live").text
+    assert live.startswith("Status: done “mission complete”") and "finished" in live
+    assert "(done)" in browser.find_element(By.CSS_SELECTOR, "#content > h2").text
+    assert "mission complete" in browser.find_element(By.CSS_SELECTOR, ".field-result_detail").text
+    shot(browser, "send-5-command-done-live")

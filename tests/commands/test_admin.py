@@ -185,3 +185,46 @@ def test_an_operator_without_permission_cannot_queue(
 ) -> None:
     client.force_login(readonly_user)
     assert client.get("/admin/commands/command/add/").status_code == 403
+
+
+def test_a_commands_page_follows_its_state_until_it_is_finished(
+    admin_ui: Client, vessel_a: Vessel
+) -> None:
+    give_position(vessel_a)
+    command = command_enqueue(
+        vessel=vessel_a, kind="hold", params={}, source=Source.ADMIN, created_by="t"
+    )
+    page = admin_ui.get(f"/admin/commands/command/{command.pk}/change/").content.decode()
+    assert 'id="command-live"' in page and "command_live.js" in page
+    assert f'data-state-url="/admin/commands/command/{command.pk}/state/"' in page
+    assert 'data-status="queued"' in page and 'data-unfinished="1"' in page
+
+    def state() -> dict:
+        return admin_ui.get(f"/admin/commands/command/{command.pk}/state/").json()
+
+    assert state() == {
+        "status": "queued",
+        "events": command.events.count(),
+        "unfinished": True,
+        "poll_s": settings.FLEET_MAP_POLL_S,
+    }
+    command_claim_open(vessel=vessel_a)
+    assert state()["status"] == "sent" and state()["unfinished"]
+    command_ack(vessel=vessel_a, uid=str(command.uid), status="done", detail="")
+    assert state()["status"] == "done" and not state()["unfinished"]
+    page = admin_ui.get(f"/admin/commands/command/{command.pk}/change/").content.decode()
+    assert 'data-unfinished=""' in page and "finished" in page
+    assert admin_ui.get("/admin/commands/command/999999/state/").status_code == 404
+
+
+def test_a_commands_state_is_not_shown_without_the_right_to_see_commands(
+    vessel_a: Vessel,
+) -> None:
+    give_position(vessel_a)
+    command = command_enqueue(
+        vessel=vessel_a, kind="hold", params={}, source=Source.ADMIN, created_by="t"
+    )
+    user = User.objects.create_user("nosy", password="x", is_staff=True)
+    client = Client()
+    client.force_login(user)
+    assert client.get(f"/admin/commands/command/{command.pk}/state/").status_code in (403, 404)

@@ -220,3 +220,38 @@ def test_importing_a_file_with_an_over_long_leg_says_so(
         follow=True,
     ).content.decode()
     assert f"Imported, but it cannot be sent yet: {problem}." in page
+
+
+def test_a_sent_mission_lands_on_its_commands_page_for_whoever_may_see_commands(
+    admin_ui: Client, reported: Vessel
+) -> None:
+    mission = five_waypoints(reported)
+    route = {"end": "stop", "items": mission.item_dicts()}
+    updated = Mission.objects.get(pk=mission.pk).updated_at.isoformat()
+    answer = admin_ui.post(
+        f"/admin/vessels/mission/{mission.pk}/send/",
+        {"confirmed": json.dumps(route), "updated_at": updated},
+    )
+    command = Command.objects.get()
+    assert answer.status_code == 302
+    assert answer["Location"] == f"/admin/commands/command/{command.pk}/change/"
+
+    # Without the right to see commands, the mission page again (the command page would 403).
+    sender = make_user(
+        "sam",
+        [
+            "vessels.view_vessel",
+            "vessels.view_mission",
+            "vessels.change_mission",
+            "commands.add_command",
+        ],
+    )
+    client = Client()
+    client.force_login(sender)
+    answer = client.post(
+        f"/admin/vessels/mission/{mission.pk}/send/",
+        {"confirmed": json.dumps(route), "updated_at": updated},
+    )
+    assert answer.status_code == 302
+    assert answer["Location"] == f"/admin/vessels/mission/{mission.pk}/change/"
+    assert Command.objects.count() == 2

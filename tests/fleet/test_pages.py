@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import datetime as dt
 import json
 from pathlib import Path
 
@@ -11,11 +12,12 @@ from django.test import Client
 
 from edge_client.contract.status import Status
 from fleet.map_actions import map_actions
+from fleet.maps import last_stretch_range
 from telemetry.models import SensorChannel
-from telemetry.services import sensor_channel_save
+from telemetry.services import fix_ingest, sensor_channel_save
 from tests.conftest import make_user
 from vessels.models import Mission, Vessel
-from vessels.services import mission_save, mission_save_items
+from vessels.services import mission_save, mission_save_items, vessel_create
 
 pytestmark = pytest.mark.django_db
 
@@ -140,6 +142,54 @@ def test_the_track_page_shows_the_vessels_track_frame(
     assert config["nearestUrl"] == "/api/v1/vessels/spab/fixes/nearest/"
     assert "fleet/vendor/uplot/uPlot.iife.min.js" in html and 'id="track-map"' in html
     assert client.get("/fleet/vessels/no-such-boat/track/").status_code == 404
+
+
+def fixes_every(vessel: Vessel, start: dt.datetime, end: dt.datetime, step_s: int) -> None:
+    records, t = [], start
+    while t <= end:
+        records.append({"time": t.isoformat(), "lat": -32.05, "lon": 115.7})
+        t += dt.timedelta(seconds=step_s)
+    fix_ingest(vessel=vessel, records=records)
+
+
+def test_the_track_page_opens_on_the_vessels_last_run_of_reports(
+    operator_user: User, vessel_a: Vessel
+) -> None:
+    client = client_for(operator_user)
+    url = f"/fleet/vessels/{vessel_a.slug}/track/"
+    # No fixes: the last 24 h from now.
+    html = client.get(url).content.decode()
+    assert page_config(html, "track-config")["lastStretch"] is None
+    assert 'data-default="24h"' in html
+    # A day of reports, 16 silent hours (the period is 10 s), then three hours ending at
+    # 09:41:20: the page opens on those three hours, in whole minutes, the newest fix inside.
+    newest = dt.datetime(2026, 11, 20, 9, 41, 20, tzinfo=dt.UTC)
+    older_end = newest - dt.timedelta(hours=19)
+    fixes_every(vessel_a, older_end - dt.timedelta(hours=24), older_end, 60)
+    fixes_every(vessel_a, newest - dt.timedelta(hours=3), newest, 10)
+    html = client.get(url).content.decode()
+    assert 'data-default="last"' in html
+    assert page_config(html, "track-config")["lastStretch"] == {
+        "from": "2026-11-20T06:41:00Z",
+        "to": "2026-11-20T09:42:00Z",
+    }
+
+
+def test_the_last_run_of_reports_is_at_most_24_hours_and_at_least_10_minutes(
+    vessel_a: Vessel,
+) -> None:
+    newest = dt.datetime(2026, 11, 20, 9, 41, 20, tzinfo=dt.UTC)
+    fixes_every(vessel_a, newest - dt.timedelta(hours=30), newest, 30)
+    assert last_stretch_range(vessel_a) == (
+        dt.datetime(2026, 11, 19, 9, 41, tzinfo=dt.UTC),
+        dt.datetime(2026, 11, 20, 9, 42, tzinfo=dt.UTC),
+    )
+    lone = vessel_create(slug="lone", name="Lone", kind="mavlink")
+    fixes_every(lone, newest, newest, 10)  # one fix
+    assert last_stretch_range(lone) == (
+        dt.datetime(2026, 11, 20, 9, 32, tzinfo=dt.UTC),
+        dt.datetime(2026, 11, 20, 9, 42, tzinfo=dt.UTC),
+    )
 
 
 def test_an_empty_tiles_url_means_no_tile_layer(

@@ -1,12 +1,16 @@
-// One vessel's track for a time range (issue 9 §2, §3): the server-simplified track with its
-// gaps as breaks, the nearest fix on click, and a plot per channel under the map (min–max band
-// and mean line from /series/). Hovering a plot marks that moment on the map; clicking the
-// track marks it on the plots.
+// One vessel's track for a time range (issue 9 §2, §3; issue 18 §3): the server-simplified
+// track with its gaps as breaks, arrows and UTC times along it (track_marks.js), the nearest
+// fix on a click on or near it, and a plot per channel under the map (min–max band and mean
+// line from /series/), their axes aligned and one cursor shared. Hovering a plot marks that
+// moment on the map; clicking the track marks it on the plots. The first range is the
+// vessel's last run of reports (the server's lastStretch), not a fixed 24 h.
 (function () {
   "use strict";
   var S = window.Shoreside;
   var el = S.el;
   var RANGES = { "6h": 6 * 3600, "24h": 24 * 3600, "7d": 7 * 24 * 3600 };
+  var LAST = "last"; // the vessel's last run of reports, from the page config
+  var CLICK_PX = 10; // a click this near the drawn track picks a fix
   var MAX_POINTS = 2000;
   var MAX_BUCKETS = 1000;
   var PLOT_HEIGHT = 170;
@@ -14,31 +18,50 @@
   var MARK_COLOUR = "#ff6f00";
 
   function iso(date) { return date.toISOString().replace(/\.\d{3}Z$/, "Z"); }
-  // datetime-local inputs hold UTC here (the page says so): no browser time zone involved.
-  function toInput(date) { return date.toISOString().slice(0, 16); }
-  function fromInput(value) { var d = new Date(value + ":00Z"); return isNaN(d) ? null : d; }
+  // The range inputs are text in UTC ("2026-11-28 05:30", as the site writes times): the
+  // browser's time zone and date format never enter.
+  var UTC_INPUT = /^\s*(\d{4})-(\d{2})-(\d{2})[ T]+(\d{1,2}):(\d{2})(?::(\d{2}))?\s*(?:Z|UTC)?\s*$/i;
+  function toInput(date) { return date.toISOString().slice(0, 16).replace("T", " "); }
+  function fromInput(value) {
+    var m = UTC_INPUT.exec(value || "");
+    if (!m) { return null; }
+    var f = m.slice(1).map(function (v) { return v === undefined ? 0 : parseInt(v, 10); });
+    var d = new Date(Date.UTC(f[0], f[1] - 1, f[2], f[3], f[4], f[5]));
+    // Date.UTC rolls 2026-02-30 over into March: only a real date and time is taken.
+    var real = d.getUTCFullYear() === f[0] && d.getUTCMonth() === f[1] - 1 && d.getUTCDate() === f[2] &&
+      d.getUTCHours() === f[3] && d.getUTCMinutes() === f[4];
+    return real ? d : null;
+  }
 
   function TrackPage(map, cfg) {
     this.map = map;
     this.cfg = cfg;
     this.trackLayer = L.layerGroup().addTo(map);
     this.timeMarker = L.marker([0, 0], {
-      interactive: false, keyboard: false,
-      icon: L.divIcon({ className: "time-marker", iconSize: [14, 14], iconAnchor: [7, 7] }),
+      interactive: false, keyboard: false, zIndexOffset: 1000,
+      icon: L.divIcon({ className: "time-marker", html: '<span class="time-marker-label"></span>', iconSize: [14, 14], iconAnchor: [7, 7] }),
     });
     this.points = [];
     this.plots = [];
     this.markedT = null;
     this.bar = document.getElementById("range-bar");
     this.bindRange();
+    this.bindMap();
     var params = new URLSearchParams(location.search);
     var from = params.get("from") && new Date(params.get("from"));
     var to = params.get("to") && new Date(params.get("to"));
     if (from && to && !isNaN(from) && !isNaN(to)) { this.setRange(null, from, to); }
-    else { this.setPreset(RANGES[params.get("range")] ? params.get("range") : this.bar.dataset.default); }
-    var self = this;
-    window.addEventListener("resize", function () { self.resizePlots(); });
+    else { this.setPreset(this.known(params.get("range")) ? params.get("range") : this.bar.dataset.default); }
+    var self = this, plots = document.getElementById("plots");
+    // The plots follow the column's width: a window resize, and the scroll bar that the
+    // plots themselves bring when they make the page taller.
+    if (window.ResizeObserver) { new ResizeObserver(function () { self.resizePlots(); }).observe(plots); }
+    else { window.addEventListener("resize", function () { self.resizePlots(); }); }
   }
+
+  TrackPage.prototype.known = function (name) {
+    return name === LAST ? !!this.cfg.lastStretch : !!RANGES[name];
+  };
 
   TrackPage.prototype.bindRange = function () {
     var self = this;
@@ -54,9 +77,19 @@
       }
       self.setRange(null, from, to);
     });
+    ["range-from", "range-to"].forEach(function (id) {
+      document.getElementById(id).addEventListener("keydown", function (e) {
+        if (e.key === "Enter") { document.getElementById("range-apply").click(); }
+      });
+    });
   };
 
   TrackPage.prototype.setPreset = function (name) {
+    if (name === LAST) {
+      var last = this.cfg.lastStretch;
+      this.setRange(LAST, new Date(last.from), new Date(last.to));
+      return;
+    }
     var to = new Date();
     this.setRange(name, new Date(to.getTime() - RANGES[name] * 1000), to);
   };
@@ -131,28 +164,37 @@
     }
     this.summary(this.points.length ? text + "." : "No fixes in this range.");
     if (!this.points.length) { return; }
-    var line = L.geoJSON(feature, { style: { color: "#1565c0", weight: 3, opacity: 0.9 } }).addTo(this.trackLayer);
-    line.on("click", function (e) { L.DomEvent.stopPropagation(e); self.trackClicked(e.latlng); });
+    // Not clickable itself: a click within CLICK_PX of it picks (bindMap), an easier target.
+    var line = L.geoJSON(feature, { interactive: false, style: { color: "#1565c0", weight: 3, opacity: 0.9 } }).addTo(this.trackLayer);
+    new S.TrackMarks(this.points).addTo(this.trackLayer);
     var first = this.points[0], last = this.points[this.points.length - 1];
     L.circleMarker([first.lat, first.lon], { radius: 6, color: "#2e7d32", fillOpacity: 0.9 })
       .bindTooltip("start " + S.fmtTime(first.t)).addTo(this.trackLayer);
     L.circleMarker([last.lat, last.lon], { radius: 6, color: "#c62828", fillOpacity: 0.9 })
       .bindTooltip("end " + S.fmtTime(last.t)).addTo(this.trackLayer);
     // No zoom animation: a new range is drawn at once, and a click lands where it shows.
-    this.map.fitBounds(line.getBounds().pad(0.1), { maxZoom: 16, animate: false });
+    this.map.fitBounds(line.getBounds().pad(0.05), { maxZoom: 16, animate: false });
   };
 
-  // The track's vertex nearest the click (on screen), then the server's fix nearest its time.
-  TrackPage.prototype.trackClicked = function (latlng) {
-    var self = this, map = this.map, click = map.latLngToLayerPoint(latlng), best = null, bestD = Infinity;
-    this.points.forEach(function (p) {
-      if (p.t === null) { return; }
-      var d = map.latLngToLayerPoint([p.lat, p.lon]).distanceTo(click);
-      if (d < bestD) { bestD = d; best = p; }
+  // A click within CLICK_PX of the drawn track picks the fix there; the pointer says where
+  // a click would.
+  TrackPage.prototype.bindMap = function () {
+    var self = this, map = this.map, box = map.getContainer();
+    map.on("click", function (e) {
+      var hit = S.nearestOnTrack(map, self.points, e.layerPoint, CLICK_PX);
+      if (hit && hit.t !== null) { self.trackClicked(hit); }
     });
-    if (!best) { return; }
-    this.markTime(best.t);
-    S.getJSON(this.cfg.nearestUrl + "?time=" + encodeURIComponent(iso(new Date(best.t * 1000))))
+    map.on("mousemove", function (e) {
+      L.DomUtil[S.nearestOnTrack(map, self.points, e.layerPoint, CLICK_PX) ? "addClass" : "removeClass"](box, "near-track");
+    });
+  };
+
+  // The point of the track under the click (its time along the drawn line), then the
+  // server's fix nearest that time: its details in a popup, its moment on the plots.
+  TrackPage.prototype.trackClicked = function (hit) {
+    var self = this, map = this.map, latlng = L.latLng(hit.lat, hit.lon);
+    this.markTime(hit.t);
+    S.getJSON(this.cfg.nearestUrl + "?time=" + encodeURIComponent(new Date(Math.round(hit.t * 1000)).toISOString()))
       .then(answer)
       .then(function (fix) {
         L.popup({ maxWidth: 340, maxHeight: 260, keepInView: true, autoPanPadding: [12, 12] }).setLatLng([fix.lat, fix.lon]).setContent(self.fixTable(fix)).openOn(map);
@@ -199,13 +241,19 @@
     this.timeMarker.setLatLng(at);
     if (!this.map.hasLayer(this.timeMarker)) { this.timeMarker.addTo(this.map); }
     var node = this.timeMarker.getElement();
-    if (node) { node.setAttribute("data-time", String(t)); node.title = S.fmtTime(t); }
+    if (node) {
+      node.setAttribute("data-time", String(t));
+      node.title = S.fmtTime(t);
+      node.firstChild.textContent = new Date(t * 1000).toISOString().slice(11, 19);
+    }
   };
 
   // --- the plots ---------------------------------------------------------------------------
 
   TrackPage.prototype.markTime = function (t) {
     this.markedT = t;
+    // A cursor set from code is not passed on by uPlot's sync: each plot's is set (the same
+    // x on each, as their axes line up), and the map's marker follows.
     this.plots.forEach(function (u) {
       u.redraw(false);
       var left = u.valToPos(t, "x");
@@ -228,6 +276,9 @@
       box.appendChild(el("p", { class: "muted", text: "No sensor data in this range." }));
       return;
     }
+    // Every plot's value axis as wide as the widest: the plotting areas, and so the time
+    // axes and the shared cursor, line up.
+    var axis = { px: 0 };
     // Empty buckets between sparse fixes are joined; only a reporting gap (the track's gap_s)
     // breaks the line, as on the map.
     function gaps(u, sidx, idx0, idx1, nullGaps) {
@@ -248,7 +299,7 @@
         width: box.clientWidth || 800,
         height: PLOT_HEIGHT,
         tzDate: function (ts) { return uPlot.tzDate(new Date(ts * 1000), "Etc/UTC"); },
-        cursor: { sync: { key: "track" }, drag: { x: false, y: false }, y: false },
+        cursor: { sync: { key: "track" }, drag: { x: false, y: false }, y: false, dataIdx: nearestData(self.gapS) },
         legend: { show: true },
         scales: {
           x: { time: true, range: [self.from.getTime() / 1000, self.to.getTime() / 1000] },
@@ -261,7 +312,7 @@
           { label: "mean", stroke: colour, width: 1.5, value: fmt(unit), gaps: gaps },
         ],
         bands: [{ series: [2, 1], fill: colour + "33" }],
-        axes: [{ values: timeLabels, space: 70 }, states ? stateAxis(states, ch) : { size: 55 }],
+        axes: [{ values: timeLabels, space: 70 }, Object.assign(states ? stateAxis(states, ch) : {}, { size: sharedSize(axis) })],
         hooks: {
           setCursor: [function (u) {
             var idx = u.cursor.idx;
@@ -275,7 +326,28 @@
       var columns = states ? [data.t, ch.min, ch.max] : [data.t, ch.min, ch.max, ch.mean];
       self.plots.push(new uPlot(opts, columns, holder));
     });
+    // The first plots were sized before the last ones measured their labels.
+    this.resizePlots();
   };
+
+  // The legend shows the nearest bucket with data (sparse fixes leave most buckets empty),
+  // but never across a reporting gap: there the value is unknown.
+  function nearestData(gapS) {
+    var limit = gapS || Infinity;
+    function has(v) { return v !== null && v !== undefined; }
+    return function (u, sidx, idx) {
+      var col = u.data[sidx], t = u.data[0];
+      if (sidx === 0 || has(col[idx])) { return idx; }
+      for (var k = 1; k < col.length; k++) {
+        var lo = idx - k, hi = idx + k;
+        var loOk = lo >= 0 && t[idx] - t[lo] <= limit, hiOk = hi < col.length && t[hi] - t[idx] <= limit;
+        if (!loOk && !hiOk) { break; }
+        if (loOk && has(col[lo])) { return lo; }
+        if (hiOk && has(col[hi])) { return hi; }
+      }
+      return idx;
+    };
+  }
 
   // The page's SensorChannel labels first (the same as the fleet map's), then the series'.
   TrackPage.prototype.label = function (key, data) {
@@ -301,8 +373,27 @@
 
   TrackPage.prototype.resizePlots = function () {
     var width = document.getElementById("plots").clientWidth;
-    this.plots.forEach(function (u) { u.setSize({ width: width, height: PLOT_HEIGHT }); });
+    this.plots.forEach(function (u) {
+      if (u.width !== width) { u.setSize({ width: width, height: PLOT_HEIGHT }); }
+      u.redraw(false, true); // and the value axes to the shared width
+    });
   };
+
+  // A value axis's width: its widest label (as uPlot measures them) and the widest of the
+  // other plots' (shared.px).
+  function sharedSize(shared) {
+    return function (u, values, axisIdx) {
+      var axis = u.axes[axisIdx], size = axis.ticks.size + axis.gap, widest = 0;
+      if (values && values.length) {
+        u.ctx.font = axis.font[0];
+        values.forEach(function (v) {
+          if (v !== null && v !== undefined) { widest = Math.max(widest, u.ctx.measureText(String(v)).width / devicePixelRatio); }
+        });
+      }
+      shared.px = Math.max(shared.px, Math.ceil(size + widest + 4));
+      return shared.px;
+    };
+  }
 
   // The channel's plot bounds from SensorChannel when it has them, widened to the data.
   function yRange(channel) {
@@ -357,7 +448,6 @@
   // Ticks at the named values seen in the data (all of them for a two-state channel), by name.
   function stateAxis(states) {
     return {
-      size: 80,
       splits: function (u) {
         var seen = {};
         [u.data[1], u.data[2]].forEach(function (col) {
@@ -375,6 +465,9 @@
   }
 
   window.ShoresideTrackMap = function (map) {
+    // Quarter zoom steps when fitting a range: the track fills the map instead of a quarter
+    // of it, with room for its arrows and times.
+    map.options.zoomSnap = 0.25;
     S.baseMap(map);
     window.shoresideTrack = new TrackPage(map, S.json("track-config"));
   };

@@ -5,7 +5,10 @@
 // (vessels/missions.py review, through the admin's review URL): one computation for this list,
 // the route table and a send. A leg that fails a check is drawn red and dashed, a row that does
 // (latitude 95, say) says why beside it and stays off the map. The end (stop, loop, return
-// home) is drawn as the closing leg.
+// home) is drawn as the closing leg, and the way to waypoint 1 (from home, or from the
+// vessel's last fix when the mission has no home) as a dashed leg. Each waypoint's hold and
+// speed are edited in its row of the list, next to its position (written through to the
+// inline row, which stays the form).
 (function () {
   "use strict";
   var S = window.Shoreside;
@@ -217,10 +220,22 @@
       });
   };
 
+  // Where the vessel starts waypoint 1 from: the mission's home, else the vessel's last fix.
+  Planner.prototype.start = function () {
+    var home = this.home(), vessel = this.vessel();
+    if (home) { return { at: home, label: "home" }; }
+    if (vessel && vessel.at) { return { at: vessel.at, label: vessel.name }; }
+    return null;
+  };
+
   Planner.prototype.render = function () {
     var self = this, items = this.items(), vessel = this.vessel(), end = this.end(), home = this.home();
-    var good = items.filter(drawable);
+    var good = items.filter(drawable), start = this.start();
     this.layer.clearLayers();
+    if (start && good.length) {
+      L.polyline([start.at, [good[0].lat, good[0].lon]],
+        { color: "#1565c0", weight: 2, opacity: 0.8, dashArray: "3 7", interactive: false, className: "planner-start-leg" }).addTo(this.layer);
+    }
     var path = good.map(function (i) { return [i.lat, i.lon]; });
     if (path.length > 1) { L.polyline(path, { color: "#1565c0", weight: 3, interactive: false }).addTo(this.layer); }
     var closing = null;
@@ -266,9 +281,16 @@
 
   // The list at once (positions, buttons); legs, times, problems and totals once reviewed.
   Planner.prototype.renderList = function (items) {
-    var self = this, box = this.list, number = 0;
+    var self = this, box = this.list, number = 0, start = this.start();
+    // The hold and speed inputs survive the redraw (the same elements, moved into the new
+    // rows), the one being typed in with its focus and caret.
+    this.cellInputs = {};
+    var kept = this.cellInputs;
+    box.querySelectorAll("input[data-for]").forEach(function (i) { kept[i.dataset.for] = i; });
+    var typing = box.contains(document.activeElement) && document.activeElement.dataset.for ? document.activeElement : null;
+    var caret = typing && [typing.selectionStart, typing.selectionEnd];
     box.innerHTML = "";
-    var head = el("tr", {}, ["#", "position", "leg", "time", "hold", "speed", ""].map(function (h) { return el("th", { text: h }); }));
+    var head = el("tr", {}, ["#", "position", "hold (s)", "speed (m/s)", "leg", "time", ""].map(function (h) { return el("th", { text: h }); }));
     var table = el("table", { class: "planner-items" }, [head]);
     items.forEach(function (item, i) {
       var buttons = el("td", { class: "planner-buttons" });
@@ -278,28 +300,62 @@
         buttons.appendChild(el("button", { type: "button", title: "delete", text: "✕", class: "planner-delete", onclick: function () { self.remove(item); } }));
       }
       var label = drawable(item) ? String(++number) : "!";
+      var first = number === 1 && drawable(item), leg = "";
+      if (first) {
+        leg = start ? "from " + start.label + " " + S.fmtDistance(S.geo.distance(start.at[0], start.at[1], item.lat, item.lon)) : "start";
+      }
       var tr = el("tr", { class: item.row && item.row === self.selected ? "selected" : "", "data-index": String(i + 1) }, [
         el("td", { text: label }),
         el("td", { class: "planner-position" }, [S.positionEl(item.lat, item.lon)]),
-        el("td", { class: "planner-leg", text: number === 1 && drawable(item) ? "start" : "" }),
+        el("td", { class: "planner-hold" }, [self.cellInput(item, "hold_s", item.hold ? String(item.hold) : "", label)]),
+        el("td", { class: "planner-speed" }, [self.cellInput(item, "speed_mps", item.speed === null ? "" : S.fmtSpeed(item.speed), label)]),
+        el("td", { class: "planner-leg" + (first ? " planner-first-leg" : ""), text: leg }),
         el("td", { class: "planner-time" }),
-        el("td", { class: "planner-hold" }),
-        el("td", { text: item.speed === null ? "" : S.fmtSpeed(item.speed) }),
         buttons,
       ]);
-      tr.addEventListener("click", function (e) { if (e.target.tagName !== "BUTTON") { self.select(item.row); } });
+      tr.addEventListener("click", function (e) { if (["BUTTON", "INPUT"].indexOf(e.target.tagName) < 0) { self.select(item.row); } });
       table.appendChild(tr);
     });
     if (!items.length) {
       table.appendChild(el("tr", {}, [el("td", { colspan: "7", class: "muted", text: self.editable ? "No waypoints yet: click the map." : "No waypoints." })]));
     }
     box.appendChild(table);
+    if (typing && box.contains(typing)) {
+      typing.focus();
+      if (caret[0] !== null) { typing.setSelectionRange(caret[0], caret[1]); }
+    }
     box.appendChild(el("div", { class: "planner-totals" }, [
       el("p", { id: "planner-total", text: "…" }),
       el("ul", { id: "planner-problems", class: "errorlist" }),
       el("p", { id: "planner-end", class: "muted" }),
     ]));
   };
+
+  // A waypoint's hold or speed, edited in its row: typed through to the inline row's field
+  // (the form that is saved), whose input event redraws the map and asks for the figures.
+  // Read-only (no form), the value as text.
+  Planner.prototype.cellInput = function (item, name, text, label) {
+    var target = item.row && field(item.row, name);
+    if (!this.editable || !target) { return el("span", { text: text }); }
+    var hold = name === "hold_s", old = this.cellInputs[target.name];
+    if (old) {
+      if (old !== document.activeElement) { old.value = shown(target.value, hold); }
+      return old;
+    }
+    var box = el("input", {
+      type: "text", inputmode: hold ? "numeric" : "decimal", class: "planner-" + (hold ? "hold" : "speed") + "-input",
+      "data-for": target.name, value: shown(target.value, hold), autocomplete: "off",
+      placeholder: hold ? "0" : "cruise", "aria-label": (hold ? "hold, seconds, " : "speed, m/s, ") + "waypoint " + label,
+      title: hold ? "Seconds to hold at this waypoint" : "Speed from this waypoint on, m/s (empty: the vessel's cruise speed)",
+    });
+    // An emptied hold is no hold (the form's field needs a number); an emptied speed is the
+    // cruise speed.
+    box.addEventListener("input", function () { target.value = box.value.trim() || (hold ? "0" : ""); });
+    return box;
+  };
+
+  // A hold of 0 shows as the empty box (its placeholder says 0), whatever the form wrote.
+  function shown(value, hold) { return hold && parseFloat(value) === 0 ? "" : value; }
 
   Planner.prototype.showReview = function (items, review) {
     var self = this, end = this.end(), home = this.home(), vessel = this.vessel();
@@ -308,7 +364,7 @@
     items.forEach(function (item, i) {
       var tr = trs[i], problems = review.rows[i] || [];
       tr.classList.toggle("planner-row-problem", problems.length > 0);
-      tr.querySelector(".planner-hold").textContent = review.holds[i] || "";
+      tr.querySelector(".planner-hold").title = review.holds[i] || "";
       if (problems.length) {
         tr.querySelector(".planner-leg").textContent = problems.join("; ");
         tr.querySelector(".planner-leg").className = "planner-leg planner-error";
