@@ -156,18 +156,18 @@ class Command(BaseCommand):
         done = command_enqueue(
             vessel=spab,
             kind="move_to",
-            params={"lat": -31.9800, "lon": 115.8200},
+            params={"lat": -32.0210, "lon": 115.7030},
             source=Source.ADMIN,
             created_by=user.username,
         )
         command_claim_open(vessel=spab)
         command_ack(vessel=spab, uid=done.uid, status="acknowledged")
         command_ack(vessel=spab, uid=done.uid, status="done", detail="arrived")
-        mission = mission_save(mission=Mission(name="Matilda Bay loop", vessel=spab, end="loop"))
+        mission = mission_save(mission=Mission(name="Gage Roads loop", vessel=spab, end="loop"))
         mission_save_items(
             mission=mission,
             items=[
                 {"lat": lat, "lon": lon, "hold_s": 0, "radius_m": 5}
-                for lat, lon in patrol_route(-31.9790, 115.8170, radius_m=300, points=5)
+                for lat, lon in patrol_route(-32.0200, 115.7000, radius_m=300, points=5)
             ],
         )
