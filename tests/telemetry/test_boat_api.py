@@ -273,7 +273,7 @@ def test_a_non_standard_number_costs_only_its_own_fix(
 # the throttle counts (the cache) are not among them.
 # Benchmark: `python -m bench.server --single-only` (issue 17 item 8).
 SINGLE_POST_STATEMENTS = {
-    "postgresql": ["WITH"],
+    "postgresql": ["EXECUTE"],
     "sqlite": ["BEGIN", "INSERT", "INSERT", "UPDATE", "COMMIT"],
 }
 
