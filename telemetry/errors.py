@@ -18,3 +18,11 @@ class BatchTooLarge(TelemetryError):
         super().__init__(f"At most {limit} fixes per request (got {got}).")
         self.limit = limit
         self.got = got
+
+
+class KeyRefused(TelemetryError):
+    """The vessel key a post was authenticated with was revoked (or its vessel deactivated)
+    after its lookup: nothing was written. The view answers it as the key lookup would."""
+
+    def __init__(self) -> None:
+        super().__init__("This vessel key no longer works.")

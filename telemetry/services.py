@@ -16,12 +16,14 @@ from django.utils import timezone
 
 from edge_client.contract.batch import BatchAnswer
 from telemetry import selectors
-from telemetry.errors import BatchTooLarge
+from telemetry.errors import BatchTooLarge, KeyRefused
 from telemetry.models import Fix, SensorChannel, TrackBucket, TrackDirty
 from telemetry.overview import WIDTHS, Summary, bucket_start, group_by_bucket, merge, summarize
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.database import database_unavailable
 from vessels.models import Vessel
+from vessels.prepared import execute_prepared
+from vessels.selectors import key_valid_sql, vessel_key_works
 from vessels.services import vessel_record_fix, vessel_record_fix_statement
 
 logger = logging.getLogger(__name__)
@@ -39,8 +41,13 @@ def fix_ingest(
     records: Sequence[Any],
     legacy: bool = False,
     now: dt.datetime | None = None,
+    key_id: int | None = None,
 ) -> IngestResult:
     """Store a batch of telemetry records for ``vessel``.
+
+    ``key_id``: the vessel key the request came with, when its lookup may be a recent one
+    (vessels.auth.key_lookup_recent): the writes then carry the key's check, and KeyRefused
+    is raised, nothing written, if the key no longer works.
 
     0. A batch over FIX_MAX_BATCH records is refused whole (BatchTooLarge), before any work.
     1. Each record is validated on its own; a bad one is reported by index and never costs
@@ -70,13 +77,15 @@ def fix_ingest(
             result.duplicates += 1
         else:
             fixes[fix.recorded_at] = fix
-    inserted = _store(vessel, fixes, now)
+    inserted = _store(vessel, fixes, now, key_id)
     result.accepted = len(inserted)
     result.duplicates += len(fixes) - len(inserted)
     return result
 
 
-def _store(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) -> list[Any]:
+def _store(
+    vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime, key_id: int | None
+) -> list[Any]:
     """Insert the fixes and advance the vessel's last fix, in one transaction.
 
     A connection lost before COMMIT (a database restart, a failover) rolled everything back:
@@ -85,23 +94,67 @@ def _store(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) 
     Inside a caller's transaction there is nothing to retry from: the error goes up.
     """
     try:
-        return _store_once(vessel, fixes, now)
+        return _store_once(vessel, fixes, now, key_id)
     except DatabaseError as exc:
         if connection.in_atomic_block or not database_unavailable(exc):
             raise
         logger.warning("ingest for %s lost its database connection; retrying", vessel.slug)
         connection.close()
-    return _store_once(vessel, fixes, now)
+    return _store_once(vessel, fixes, now, key_id)
 
 
-def _store_once(vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime) -> list[Any]:
-    if connection.vendor == "postgresql" and 0 < len(fixes) <= INSERT_CHUNK:
-        return _store_postgres_in_one_statement(vessel, list(fixes.values()), now)
+def _store_once(
+    vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime, key_id: int | None
+) -> list[Any]:
+    if 0 < len(fixes) <= INSERT_CHUNK:
+        if connection.vendor == "postgresql":
+            return _store_postgres_in_one_statement(vessel, list(fixes.values()), now, key_id)
+        if connection.vendor == "sqlite":
+            return _store_sqlite_in_one_transaction(vessel, list(fixes.values()), now, key_id)
     with transaction.atomic():
+        if key_id is not None and not vessel_key_works(key_id):
+            raise KeyRefused
         inserted = _insert_new(vessel.pk, list(fixes.values()), now)
         _mark_dirty(vessel.pk, inserted)
         _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
     return inserted
+
+
+def _store_sqlite_in_one_transaction(
+    vessel: Vessel, fixes: list[FixData], now: dt.datetime, key_id: int | None
+) -> list[dt.datetime]:
+    """Insert the fixes, mark their minutes and advance the vessel: three statements in one
+    transaction, every one of them built before it begins.
+
+    BEGIN IMMEDIATE takes SQLite's one write lock for the whole database: the other workers'
+    posts wait for it (sleeping in SQLite's busy handler, 1 ms at first, then longer), so the
+    lock is held only for the three library calls and COMMIT, not for the Python that builds
+    them (benchmark: `python -m bench.server --single-only`, issue 17 item 8). The marks and the
+    last fix are built for every fix of the batch; only when some were duplicates (a
+    store-and-forward retry) are they built again, under the lock, for the new ones alone.
+    With ``key_id``, the insert carries the key's check; fewer rows than fixes then means
+    duplicates or a key that no longer works, which one is asked under the same lock.
+    """
+    newest = max(fixes, key=lambda f: f.recorded_at)
+    insert = _insert_sqlite_statement(vessel.pk, now, fixes, key_id)
+    mark = _mark_dirty_statement(vessel.pk, [f.recorded_at for f in fixes])
+    record = vessel_record_fix_statement(
+        vessel_id=vessel.pk, seen_at=now, fix_at=newest.recorded_at, summary=fix_summary(newest)
+    )
+    by_time = {_key(f.recorded_at): f for f in fixes}
+    with transaction.atomic(), connection.cursor() as cursor:
+        cursor.execute(*insert)
+        new = [by_time[_key(row[0])] for row in cursor.fetchall()]
+        if len(new) == len(fixes):
+            if mark:
+                cursor.execute(*mark)
+            cursor.execute(*record)
+        else:
+            if key_id is not None and not vessel_key_works(key_id):
+                raise KeyRefused
+            _mark_dirty(vessel.pk, [f.recorded_at for f in new])
+            _advance_last_fix(vessel, new, now)
+    return [f.recorded_at for f in new]
 
 
 FIX_COLUMNS = (
@@ -151,6 +204,14 @@ def _insert_tail() -> str:
 
 
 def _insert_sqlite(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> list[Any]:
+    with connection.cursor() as cursor:
+        cursor.execute(*_insert_sqlite_statement(vessel_id, now, fixes))
+        return [r[0] for r in cursor.fetchall()]
+
+
+def _insert_sqlite_statement(
+    vessel_id: int, now: dt.datetime, fixes: list[FixData], key_id: int | None = None
+) -> tuple[str, list[Any]]:
     # The backend's own adapters, straight: the field layer around them cost more per fix
     # than the insert (profiled). Values are already validated aware-UTC datetimes and dicts.
     adapt_time, adapt_json = (
@@ -164,11 +225,18 @@ def _insert_sqlite(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> li
         for value in (vessel_id, adapt_time(f.recorded_at), received, f.lat, f.lon,
                       f.heading_deg, f.speed_mps, f.battery_v, adapt_json(f.readings, None))
     ]  # fmt: skip
+    values = _sqlite_values(len(fixes))
+    if key_id is None:
+        return _insert_head() + values + _insert_tail(), params
+    # SQLite reads ON CONFLICT after INSERT … SELECT only when the SELECT has a WHERE: it has.
+    checked = f"SELECT * FROM ({values}) WHERE {key_valid_sql(connection.vendor)}"
+    return _insert_head() + checked + _insert_tail(), [*params, key_id]
+
+
+@functools.lru_cache(maxsize=16)
+def _sqlite_values(rows: int) -> str:
     row = "(" + ", ".join(["%s"] * len(FIX_COLUMNS)) + ")"
-    sql = _insert_head() + f"VALUES {', '.join([row] * len(fixes))}" + _insert_tail()
-    with connection.cursor() as cursor:
-        cursor.execute(sql, params)
-        return [r[0] for r in cursor.fetchall()]
+    return f"VALUES {', '.join([row] * rows)}"
 
 
 _PG_RECORD = "t timestamptz, lat float8, lon float8, h float8, s float8, b float8, r jsonb"
@@ -182,7 +250,7 @@ def _insert_postgres(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> 
 
 
 def _insert_postgres_statement(
-    vessel_id: int, now: dt.datetime, fixes: list[FixData]
+    vessel_id: int, now: dt.datetime, fixes: list[FixData], where: str = ""
 ) -> tuple[str, list[Any]]:
     document = json.dumps([
         {"t": f.recorded_at.isoformat(), "lat": f.lat, "lon": f.lon, "h": f.heading_deg,
@@ -193,13 +261,14 @@ def _insert_postgres_statement(
         _insert_head()
         + "SELECT %s, u.t, %s, u.lat, u.lon, u.h, u.s, u.b, u.r "
         + f"FROM jsonb_to_recordset(%s::jsonb) AS u({_PG_RECORD})"
+        + (f" WHERE {where}" if where else "")
         + _insert_tail()
     )
     return sql, [vessel_id, now, document]
 
 
 def _store_postgres_in_one_statement(
-    vessel: Vessel, fixes: list[FixData], now: dt.datetime
+    vessel: Vessel, fixes: list[FixData], now: dt.datetime, key_id: int | None
 ) -> list[dt.datetime]:
     """Insert the fixes and advance the vessel in ONE statement, outside any transaction.
 
@@ -209,27 +278,41 @@ def _store_postgres_in_one_statement(
     only if that one was new (the `newest` CTE reads the insert's RETURNING rows); an older
     new fix of the same batch could not be newer than the vessel's last fix anyway. The
     `dirty` CTE marks the new fixes' minutes for the track overview in the same statement.
+    With ``key_id``, the `key` CTE checks the key once and every write waits on it; a NULL
+    row in the answer says it no longer works (and nothing was written). Prepared once per
+    connection (vessels.prepared): planning it was half of its time in the database.
     """
     newest = max(fixes, key=lambda f: f.recorded_at)
-    insert_sql, insert_params = _insert_postgres_statement(vessel.pk, now, fixes)
+    key_cte, works = "", ""
+    key_params: list[Any] = []
+    if key_id is not None:
+        key_cte = f"key AS (SELECT {key_valid_sql(connection.vendor)} AS works), "
+        key_params, works = [key_id], "(SELECT works FROM key)"
+    insert_sql, insert_params = _insert_postgres_statement(vessel.pk, now, fixes, works)
     update_sql, update_params = vessel_record_fix_statement(
         vessel_id=vessel.pk,
         seen_at=now,
         fix_at=newest.recorded_at,
         summary=fix_summary(newest),
         also_if="EXISTS (SELECT 1 FROM newest)",
+        only_if=(works, ()),
     )
     sql = (
-        f"WITH inserted AS ({insert_sql}), "
+        f"WITH {key_cte}inserted AS ({insert_sql}), "
         "newest AS (SELECT 1 FROM inserted WHERE recorded_at = %s), "
         f"vessel AS ({update_sql}), "
         f"{_mark_dirty_cte()} "
         "SELECT recorded_at FROM inserted"
+        + (" UNION ALL SELECT NULL FROM key WHERE NOT works" if key_id is not None else "")
     )
+    params = [*key_params, *insert_params, newest.recorded_at, *update_params, vessel.pk]
     by_time = {_key(f.recorded_at): f.recorded_at for f in fixes}
     with connection.cursor() as cursor:
-        cursor.execute(sql, [*insert_params, newest.recorded_at, *update_params, vessel.pk])
-        return [by_time[_key(row[0])] for row in cursor.fetchall()]
+        execute_prepared(cursor, sql, params)
+        rows = cursor.fetchall()
+    if any(row[0] is None for row in rows):
+        raise KeyRefused
+    return [by_time[_key(row[0])] for row in rows]
 
 
 def _key(value: Any) -> dt.datetime:
@@ -285,11 +368,16 @@ DIRTY_RUN_JOIN_S = 1800
 REBUILD_WINDOW_S = 86400
 
 
-# An existing mark is updated to itself rather than left alone: the update locks the row until
-# the ingest commits, so a refresh that claims (deletes) the mark meanwhile waits, and then reads
-# the new fixes. DO NOTHING takes no lock: on PostgreSQL a refresh could claim the mark and
-# rebuild before the ingest committed, leaving its fixes out of the overview for good.
+# PostgreSQL: an existing mark is updated to itself rather than left alone: the update locks the
+# row until the ingest commits, so a refresh that claims (deletes) the mark meanwhile waits, and
+# then reads the new fixes. DO NOTHING takes no lock: a refresh could claim the mark and rebuild
+# before the ingest committed, leaving its fixes out of the overview for good.
 _KEEP_MARK_LOCKED = 'DO UPDATE SET "start" = EXCLUDED."start"'
+# SQLite: DO NOTHING, and the row is not written again. Its writers take the database's one write
+# lock at BEGIN (IMMEDIATE) and keep it to COMMIT, so a refresh cannot claim the mark between
+# this ingest's check and its commit: it runs wholly before (the mark is then new) or after
+# (and reads the new fixes).
+_MARK_CONFLICT = {"postgresql": _KEEP_MARK_LOCKED, "sqlite": "DO NOTHING"}
 
 
 def _dirty_minutes(times: Sequence[dt.datetime]) -> list[int]:
@@ -298,18 +386,29 @@ def _dirty_minutes(times: Sequence[dt.datetime]) -> list[int]:
 
 def _mark_dirty(vessel_id: int, times: Sequence[dt.datetime]) -> None:
     """Mark the minutes of newly stored fixes out of date (same transaction as the fixes)."""
+    statement = _mark_dirty_statement(vessel_id, times)
+    if statement is None:
+        return
+    with connection.cursor() as cursor:
+        cursor.execute(*statement)
+
+
+def _mark_dirty_statement(
+    vessel_id: int, times: Sequence[dt.datetime]
+) -> tuple[str, list[Any]] | None:
+    """:func:`_mark_dirty` as (sql, params); None when there is nothing to mark."""
     minutes = _dirty_minutes(times)
     if not minutes:
-        return
+        return None
     qn = connection.ops.quote_name
     table = qn(TrackDirty._meta.db_table)
     rows = ", ".join(["(%s, %s)"] * len(minutes))
+    conflict = _MARK_CONFLICT.get(connection.vendor, _KEEP_MARK_LOCKED)
     sql = (
         f"INSERT INTO {table} ({qn('vessel_id')}, {qn('start')}) VALUES {rows}"
-        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) {_KEEP_MARK_LOCKED}"
+        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) {conflict}"
     )
-    with connection.cursor() as cursor:
-        cursor.execute(sql, [value for m in minutes for value in (vessel_id, m)])
+    return sql, [value for m in minutes for value in (vessel_id, m)]
 
 
 def _mark_dirty_cte() -> str:

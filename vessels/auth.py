@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import time
 
 from django.http import HttpRequest
 from django.utils import timezone
@@ -53,15 +54,72 @@ def key_lookup(raw_key: str) -> VesselKey:
     return key
 
 
+# Keys this process looked up lately, by hash: (when, key with its vessel). Only for a write that
+# carries the key's own check (telemetry's single post: vessels.selectors.key_valid_sql), so a
+# revoked key still stops at once; the cache spares that request the key's SELECT, the boat's
+# everyday request its second statement (issue 17 item 8). An entry lives KEY_RECENT_S at most
+# (a renamed vessel's slug, in log lines, is that late), and the whole cache is dropped when
+# full.
+KEY_RECENT_S = 60.0
+KEY_RECENT_MAX = 10_000
+_recent: dict[str, tuple[float, VesselKey]] = {}
+
+
+def key_lookup_recent(raw_key: str) -> VesselKey:
+    """:func:`key_lookup`, from this process's recent lookups when it has the key: only for a
+    caller whose writes check the key (key_valid_sql) and that calls :func:`key_forget` and
+    looks again when they find it no longer works."""
+    if not raw_key or len(raw_key) > 200:
+        raise AuthenticationFailed("Invalid vessel key.")
+    key_hash = hash_key(raw_key)
+    found = _recent.get(key_hash)
+    now = time.monotonic()
+    if found is not None and now - found[0] < KEY_RECENT_S:
+        key = found[1]
+        vessel_key_touch(key=key, now=timezone.now())
+        return key
+    key = key_lookup(raw_key)
+    if len(_recent) >= KEY_RECENT_MAX:
+        _recent.clear()
+    _recent[key_hash] = (now, key)
+    return key
+
+
+def key_forget(raw_key: str) -> None:
+    """Drop ``raw_key`` from the recent lookups (its write found it no longer works)."""
+    _recent.pop(hash_key(raw_key), None)
+
+
+def _raw_key(request: Request) -> str:
+    scheme, _, raw = request.META.get("HTTP_AUTHORIZATION", "").partition(" ")
+    return raw.strip() if scheme.lower() == SCHEME.lower() else ""
+
+
+def key_recheck(request: Request) -> None:
+    """Look the request's key up afresh: AuthenticationFailed if it no longer works.
+
+    For any error a view with ``keys_checked_by_writes`` answers (a bad body, a refused write):
+    a key revoked since its recent lookup is a 401 first, as it is when the lookup is fresh."""
+    raw = _raw_key(request)
+    if raw:
+        key_forget(raw)
+        key_lookup(raw)
+
+
 class VesselKeyAuthentication(BaseAuthentication):
-    """`Authorization: Api-Key <key>` → (BoatPrincipal, VesselKey)."""
+    """`Authorization: Api-Key <key>` → (BoatPrincipal, VesselKey).
+
+    A view whose writes check the key themselves (``keys_checked_by_writes = True``, and
+    errors through :func:`key_recheck`) is given it from the recent lookups."""
 
     def authenticate(self, request: Request) -> tuple[BoatPrincipal, VesselKey] | None:
         header = request.META.get("HTTP_AUTHORIZATION", "")
         scheme, _, raw = header.partition(" ")
         if scheme.lower() != SCHEME.lower():
             return None
-        key = key_lookup(raw.strip())
+        view = (getattr(request, "parser_context", None) or {}).get("view")
+        lookup = key_lookup_recent if getattr(view, "keys_checked_by_writes", False) else key_lookup
+        key = lookup(raw.strip())
         return BoatPrincipal(key.vessel), key
 
     def authenticate_header(self, request: Request) -> str:

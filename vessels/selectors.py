@@ -79,6 +79,28 @@ def vessel_key_by_hash(key_hash: str) -> VesselKey | None:
     return key
 
 
+@functools.cache
+def key_valid_sql(vendor: str) -> str:
+    """SQL true while the key with id %s works (not revoked, its vessel active): the condition
+    a write made on a recently looked-up key (vessels.auth.key_lookup_recent) carries, so a
+    revoked key stops at once even though its lookup was not repeated."""
+    qn = connection.ops.quote_name
+    key, vessel = VesselKey._meta, Vessel._meta
+    revoked, active = key.get_field("revoked_at").column, vessel.get_field("active").column
+    return (
+        f"EXISTS (SELECT 1 FROM {qn(key.db_table)} k JOIN {qn(vessel.db_table)} v"
+        f" ON v.{qn(vessel.pk.column)} = k.{qn('vessel_id')}"
+        f" WHERE k.{qn(key.pk.column)} = %s AND k.{qn(revoked)} IS NULL AND v.{qn(active)})"
+    )
+
+
+def vessel_key_works(key_id: int) -> bool:
+    """Whether the key still works (see key_valid_sql)."""
+    with connection.cursor() as cursor:
+        cursor.execute(f"SELECT 1 WHERE {key_valid_sql(connection.vendor)}", [key_id])
+        return cursor.fetchone() is not None
+
+
 def missions_visible_to(user: Any) -> QuerySet[Mission]:
     """The missions ``user`` may see: templates, and missions of vessels they may view.
 

@@ -72,7 +72,7 @@ def vessel_key_touch(*, key: VesselKey, now: dt.datetime) -> None:
 
 
 @functools.cache
-def _record_fix_sql(vendor: str, also_if: str = "") -> str:
+def _record_fix_sql(vendor: str, also_if: str = "", only_if: str = "") -> str:
     meta, qn = Vessel._meta, connection.ops.quote_name
     seen, fix, fix_at = (
         qn(meta.get_field(n).column) for n in ("last_seen_at", "last_fix", "last_fix_at")
@@ -84,7 +84,7 @@ def _record_fix_sql(vendor: str, also_if: str = "") -> str:
         f"UPDATE {qn(meta.db_table)} SET {seen} = %s, "
         f"{fix} = CASE WHEN {newer} THEN %s ELSE {fix} END, "
         f"{fix_at} = CASE WHEN {newer} THEN %s ELSE {fix_at} END "
-        f"WHERE {qn(meta.pk.column)} = %s"
+        f"WHERE {qn(meta.pk.column)} = %s" + (f" AND {only_if}" if only_if else "")
     )
 
 
@@ -118,17 +118,19 @@ def vessel_record_fix_statement(
     fix_at: dt.datetime,
     summary: dict[str, Any],
     also_if: str = "",
+    only_if: tuple[str, Sequence[Any]] = ("", ()),
 ) -> tuple[str, list[Any]]:
     """:func:`vessel_record_fix` as (sql, params), for a caller that runs it as part of one
     statement of its own (ingest on PostgreSQL: fixes and vessel in one round trip).
-    ``also_if``, a parameterless SQL condition, must hold too for the fix to be taken."""
+    ``also_if``, a parameterless SQL condition, must hold too for the fix to be taken;
+    ``only_if`` (SQL and its parameters), for the row to be written at all."""
     # The backend's adapters, straight (both fields are plain: no encoder, aware UTC times):
     # the field layer around them cost a tenth of a single-fix post (profiled, bench.server).
     ops = connection.ops
     at = ops.adapt_datetimefield_value(fix_at)
     summary_value = ops.adapt_json_value(summary, None)
     params = [ops.adapt_datetimefield_value(seen_at), at, summary_value, at, at, vessel_id]
-    return _record_fix_sql(connection.vendor, also_if), params
+    return _record_fix_sql(connection.vendor, also_if, only_if[0]), [*params, *only_if[1]]
 
 
 def vessel_bump_commands_version(*, vessel_id: int) -> None:

@@ -1,6 +1,8 @@
 -- POST batches of fixes with timestamps unique per request (and per wrk thread).
--- wrk -s ingest.lua URL -- <batch> <first_unix_second> <api_key>
+-- wrk -s ingest.lua URL -- <batch> <first_unix_second> <api_key>[,<api_key>...]
 -- Fix k of this thread is at first_unix_second + thread_offset + k/100 s (ISO 8601, +00:00).
+-- Several keys (comma-separated): wrk thread i posts with key i (mod their number), so with one
+-- connection per thread (-t N -c N) each connection is its own boat.
 local dir = debug.getinfo(1, "S").source:match("^@(.*/)") or "./"
 dofile(dir .. "common.lua")
 
@@ -9,7 +11,9 @@ local batch, first, key, sent, offset
 function init(args)
    batch = tonumber(args[1])
    first = tonumber(args[2])
-   key = args[3]
+   local keys = {}
+   for k in string.gmatch(args[3], "[^,]+") do keys[#keys + 1] = k end
+   key = keys[(thread_index or 0) % #keys + 1]
    sent = 0
    -- a million seconds per thread: no two threads ever share a timestamp
    offset = (thread_index or 0) * 1000000

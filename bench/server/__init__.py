@@ -16,6 +16,10 @@ also on Ctrl-C. Only 127.0.0.1 is ever contacted.
 Single-fix posts (ours against the DRF baseline) run in interleaved rounds, ours, DRF, DRF,
 ours… (``--rounds``), so a load that comes and goes on a shared machine falls on both; the
 ratio is printed per round and over all rounds. Compare ratios, not rates, on a busy machine.
+Each wrk connection of those rounds posts as a boat of its own (its own vessel and key, one wrk
+thread per connection), on both sides alike: a fleet's boats each post their own fixes, while N
+connections posting for one boat queued on that boat's rows (its last fix, its overview minute),
+which no fleet does. The DRF baseline does the same work as before (parse, validate, insert).
 
 One job per module: ``constants`` (targets, load shape, URLs), ``stack`` (data dir or throwaway
 database, migrate, provision, gunicorn, cleanup), ``helper`` (the Django side, in a subprocess),

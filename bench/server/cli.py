@@ -37,7 +37,7 @@ def bench_db(db: str, opts: argparse.Namespace) -> None:
     stack = make_stack(db, opts.worker_class, opts.threads, opts.profile)
     print(f"\n### {stack.label}: migrating a fresh database ...", flush=True)
     stack.manage("migrate", "--noinput")
-    provision(stack)
+    provision(stack, opts.connections)
     start_server(stack)
     print(f"### gunicorn 2 x {stack.worker_class} on {HOST}:{stack.port}", flush=True)
     clock = Clock()

@@ -21,6 +21,16 @@ POST_EVERY_S = 10.0
 FIXES_PER_POST = 10  # 10 s of 1 Hz fixes per post
 OPERATOR_EVERY_S = 2.0
 
+# Single-fix posts: each wrk connection posts as a boat of its own (slug-0, slug-1, …), ours
+# and DRF's alike, as a fleet does: one boat per connection, not N connections for one boat.
+SINGLE_SLUGS = {"ours": "ingest-single", "drf": "drf-single"}
+
+
+def single_post_slugs(side: str, connections: int) -> list[str]:
+    """The vessels one side's single-fix posts use: one per wrk connection."""
+    return [f"{SINGLE_SLUGS[side]}-{i}" for i in range(connections)]
+
+
 TELEMETRY = "/api/v1/boat/telemetry/"
 COMMANDS = "/api/v1/boat/commands/"
 HELLO = "/bench/hello/"

@@ -23,8 +23,10 @@ from bench.server.constants import (
     OPERATOR_EVERY_S,
     POLL_EVERY_S,
     POST_EVERY_S,
+    SINGLE_SLUGS,
     SOAK_BOATS,
     TELEMETRY,
+    single_post_slugs,
 )
 from bench.server.fixes import Clock, backlog_upload
 from bench.server.mixed import Sample, soak_async
@@ -136,16 +138,24 @@ def single_round_order(rounds: int) -> list[str]:
 
 
 def measure_single(stack: Stack, opts: argparse.Namespace, clock: Clock) -> SingleRun:
-    """Single-fix posts, ours and DRF's, in interleaved rounds of --phase-seconds each."""
-    sides = {"ours": (TELEMETRY, "ingest-single"), "drf": (DRF_TELEMETRY, "drf-single")}
+    """Single-fix posts, ours and DRF's, in interleaved rounds of --phase-seconds each.
+
+    Each wrk connection is a boat of its own (its own vessel and key, one wrk thread per
+    connection), on both sides alike: a fleet's boats each post their own fixes, and N
+    connections posting for one boat would queue on that boat's rows (its last fix, its
+    overview minute), which no fleet does."""
+    paths = {"ours": TELEMETRY, "drf": DRF_TELEMETRY}
     conns = opts.connections
 
     def run(side: str, seconds: float) -> WrkResult:
-        path, slug = sides[side]
-        args = ["1", str(clock.take(2 * 10**6)), stack.keys[slug]]
-        return wrk(stack, path, "ingest.lua", args, seconds=seconds, connections=conns)
+        keys = ",".join(stack.keys[slug] for slug in single_post_slugs(side, conns))
+        args = ["1", str(clock.take(2 * 10**6 * conns)), keys]
+        return wrk(
+            stack, paths[side], "ingest.lua", args, seconds=seconds, connections=conns,
+            threads=conns,
+        )  # fmt: skip
 
-    warm_ok = {sides[side][1]: run(side, opts.warmup_seconds).ok for side in sides}
+    warm_ok = {SINGLE_SLUGS[side]: run(side, opts.warmup_seconds).ok for side in paths}
     rounds: dict[str, list[WrkResult]] = {"ours": [], "drf": []}
     for side in single_round_order(opts.rounds):
         rounds[side].append(run(side, opts.phase_seconds))

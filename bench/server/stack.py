@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from bench.server.client import http_request
-from bench.server.constants import HELLO, HOST, SOAK_BOATS
+from bench.server.constants import HELLO, HOST, SOAK_BOATS, single_post_slugs
 
 ROOT = Path(__file__).resolve().parents[2]
 PY = sys.executable
@@ -228,12 +228,12 @@ def wait_until_answering(stack: Stack, proc: subprocess.Popen[bytes]) -> None:
     raise SystemExit("gunicorn did not answer within 60 s")
 
 
-def provision(stack: Stack) -> None:
+def provision(stack: Stack, connections: int) -> None:
     slugs = [
         "ingest-batch",
-        "ingest-single",
+        *single_post_slugs("ours", connections),
         "drf-batch",
-        "drf-single",
+        *single_post_slugs("drf", connections),
         "backlog",
         "drf-backlog",
         "poll",
