@@ -41,10 +41,10 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
-from edge_client.catalog import NAVIGATION_KINDS
 from edge_client.commands import Command, CommandError, parse_command, validate
 from edge_client.config import CommandsConfig
 from edge_client.contract.backoff import doubled
+from edge_client.contract.catalog import NAVIGATION_KINDS
 from edge_client.contract.status import Status
 from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
 from edge_client.mission import (
