@@ -14,6 +14,7 @@ from django.db import DatabaseError, connection, transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
+from edge_client.contract import fix as fix_shape
 from edge_client.contract.batch import BatchAnswer
 from telemetry import selectors
 from telemetry.errors import BatchTooLarge
@@ -253,6 +254,10 @@ def _advance_last_fix(vessel: Vessel, new: list[FixData], now: dt.datetime) -> N
     )
 
 
+# A fix's numbers a boat may leave out (all but lat and lon), in the wire shape's order.
+_OPTIONAL_NUMBERS = tuple(n for n in fix_shape.NUMBERS if n not in fix_shape.REQUIRED)
+
+
 def fix_summary(fix: FixData | Fix) -> dict[str, Any]:
     """A fix as the boat API takes it (DESIGN §5): the copy kept on Vessel.last_fix, and what
     the glider's shore link posts to ``boat/telemetry/``."""
@@ -261,7 +266,7 @@ def fix_summary(fix: FixData | Fix) -> dict[str, Any]:
         "lat": fix.lat,
         "lon": fix.lon,
     }
-    for name in ("heading_deg", "speed_mps", "battery_v"):
+    for name in _OPTIONAL_NUMBERS:
         value = getattr(fix, name)
         if value is not None:
             summary[name] = value

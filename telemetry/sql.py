@@ -15,6 +15,7 @@ from typing import Any
 
 from django.db import connection
 
+from edge_client.contract import fix as fix_shape
 from telemetry.models import Fix, TrackBucket, TrackDirty
 from telemetry.overview import WIDTHS, RawFix, Summary
 
@@ -159,8 +160,11 @@ def dirty_minutes(vessel_id: int, lo: float, hi: float) -> list[int]:
 
 # Rows read from the cursor at a time: memory stays flat whatever the range.
 EXPORT_CHUNK = 5000
-# The fix's numbers in every export, in column order (between `time` and `readings`).
-EXPORT_NUMBERS = ("lat", "lon", "heading_deg", "speed_mps", "battery_v")
+# The fix's numbers in every export, in column order (between `time` and `readings`): the
+# contract's wire shape (edge_client.contract.fix).
+EXPORT_NUMBERS = fix_shape.NUMBERS
+# A GeoJSON feature's properties after its time: every value but the point's own.
+FEATURE_PROPERTIES = tuple(n for n in fix_shape.FIELDS if n not in ("time", "lat", "lon"))
 QUOTE = '"'
 # An export row: (time as ISO text, Unix seconds, lat, lon, heading, speed, battery, readings
 # as JSON text).
@@ -269,13 +273,13 @@ def feature_line_sql() -> str:
         _text("lat", "null"),
         _literal(']},"properties":{"time":"'),
         _time(),
-        _literal('","heading_deg":'),
-        _text("heading_deg", "null"),
-        _literal(',"speed_mps":'),
-        _text("speed_mps", "null"),
-        _literal(',"battery_v":'),
-        _text("battery_v", "null"),
-        _literal(',"readings":'),
-        _text("readings", "{}"),
+        *(
+            part
+            for i, name in enumerate(FEATURE_PROPERTIES)
+            for part in (
+                _literal(f'{"" if i else QUOTE},"{name}":'),  # the first closes the time
+                _text(name, "{}" if name == "readings" else "null"),
+            )
+        ),
         _literal("}}"),
     )

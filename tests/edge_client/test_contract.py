@@ -68,14 +68,32 @@ def test_the_parser_takes_its_fields_and_ranges_from_the_contract() -> None:
     assert V1_FIELDS == set(fix_shape.FIELDS)
     now = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)
     for name, (lo, hi) in fix_shape.RANGES.items():
-        if name in ("lat", "lon"):
-            continue
         fix = {"time": now.isoformat(), "lat": 0, "lon": 0, name: hi}
         assert getattr(parse_fix(fix, now=now), name) in (hi, hi % 360)
+        assert getattr(parse_fix({**fix, name: lo}, now=now), name) == lo
         with pytest.raises(FixErrors):
             parse_fix({**fix, name: hi + 1}, now=now)
         with pytest.raises(FixErrors):
             parse_fix({**fix, name: lo - 1}, now=now)
+
+
+def test_the_parser_takes_a_positions_range_from_the_contract(monkeypatch) -> None:
+    """Narrow the contract's latitude: the parser follows (it spelled 90 and 180 itself)."""
+    from telemetry.parsing import FixErrors, parse_fix
+
+    now = dt.datetime(2026, 1, 1, tzinfo=dt.UTC)
+    monkeypatch.setitem(fix_shape.RANGES, "lat", (-80, 80))
+    with pytest.raises(FixErrors, match="between -80 and 80"):
+        parse_fix({"time": now.isoformat(), "lat": 85, "lon": 0}, now=now)
+
+
+def test_the_ack_schemas_statuses_are_the_contracts() -> None:
+    from drf_spectacular.generators import SchemaGenerator
+
+    from edge_client.contract.status import ACK_STATUSES
+
+    components = SchemaGenerator().get_schema(public=True)["components"]["schemas"]
+    assert components["AckStatusEnum"]["enum"] == [str(s) for s in ACK_STATUSES]
 
 
 def test_the_boat_writes_only_fields_of_the_contract() -> None:
@@ -118,3 +136,17 @@ def test_backoff_doubles_up_to_its_cap() -> None:
     assert doubled(1e6) == 2e6  # uncapped by default
     assert [after_failures(5.0, n, cap=120.0) for n in (0, 1, 3, 5)] == [5.0, 10.0, 40.0, 120.0]
     assert after_failures(0.5, 10**6, cap=1e9) == 0.5 * 2**6  # at most six doublings
+
+
+def test_every_list_of_a_fixs_fields_is_the_contracts() -> None:
+    """The exports' columns, the fixes API and the fleet's last fix read the wire shape
+    rather than spell it again (it was written out in nine places)."""
+    from telemetry import sql
+    from telemetry.api import export, views
+    from vessels.api.views import LAST_FIX_FIELDS
+
+    assert export.COLUMNS is fix_shape.FIELDS and LAST_FIX_FIELDS is fix_shape.FIELDS
+    assert sql.EXPORT_NUMBERS is fix_shape.NUMBERS
+    assert fix_shape.NUMBERS == ("lat", "lon", "heading_deg", "speed_mps", "battery_v")
+    fields = views.FixSerializer.Meta.fields
+    assert [name for name in fields if name != "received_at"] == list(fix_shape.FIELDS)
