@@ -150,3 +150,36 @@ def test_every_list_of_a_fixs_fields_is_the_contracts() -> None:
     assert fix_shape.NUMBERS == ("lat", "lon", "heading_deg", "speed_mps", "battery_v")
     fields = views.FixSerializer.Meta.fields
     assert [name for name in fields if name != "received_at"] == list(fix_shape.FIELDS)
+
+
+@pytest.mark.parametrize("enum", ["MAV_CMD", "MAV_FRAME", "MAV_MISSION_RESULT"])
+def test_mavlinks_names_are_pymavlinks_with_no_table_of_our_own(enum: str) -> None:
+    from edge_client.contract import mavcmd
+
+    named = {n: e.name for n, e in apm.enums[enum].items() if not e.name.endswith("_ENUM_END")}
+    assert {n: mavcmd.name(enum, n) for n in named} == named
+    assert mavcmd.name(enum, 12345) is None
+
+
+def test_without_pymavlink_every_number_is_unnamed(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    from edge_client.contract import mavcmd
+    from vessels.missionfiles import mavitems
+
+    mavcmd._names.cache_clear()
+    monkeypatch.setitem(sys.modules, "pymavlink.dialects.v20.ardupilotmega", None)
+    try:
+        assert mavcmd.name("MAV_CMD", 16) is None
+        assert mavitems.command_name(16) == "MAV_CMD 16"
+    finally:
+        mavcmd._names.cache_clear()
+
+
+def test_the_commands_a_mission_file_refuses_by_name_are_mavlinks() -> None:
+    from vessels.missionfiles import mavitems
+
+    known = {e.name for e in apm.enums["MAV_CMD"].values()}
+    assert mavitems._FOR_AIRCRAFT | mavitems._CAMERA <= known
+    assert mavitems.command_name(183) == "MAV_CMD_DO_SET_SERVO"
+    assert edge_mission.result_name(4) == "MAV_MISSION_NO_SPACE"
