@@ -34,7 +34,7 @@ def _names(enum: str) -> dict[int, str]:
     # Guarded: both the boat's extra and the server's install pymavlink, but this package must
     # import without it (a tool that needs only the tables); then every number is unnamed.
     try:
-        from pymavlink.dialects.v20 import ardupilotmega
+        import pymavlink.dialects.v20.ardupilotmega as ardupilotmega
     except ImportError:
         return {}
     entries = ardupilotmega.enums.get(enum, {})
