@@ -183,3 +183,12 @@ def test_the_commands_a_mission_file_refuses_by_name_are_mavlinks() -> None:
     assert mavitems._FOR_AIRCRAFT | mavitems._CAMERA <= known
     assert mavitems.command_name(183) == "MAV_CMD_DO_SET_SERVO"
     assert edge_mission.result_name(4) == "MAV_MISSION_NO_SPACE"
+
+
+def test_the_modes_that_need_a_position_are_one_table_on_the_boat_and_in_the_simulator() -> None:
+    from edge_client.contract.kinds import ROVER_POSITION_MODES
+    from edge_client.executor import POSITION_MODES as BOAT
+    from edge_client.sim.rover import POSITION_MODES as SIM
+
+    assert BOAT is ROVER_POSITION_MODES and SIM is ROVER_POSITION_MODES  # the sim lacked two
+    assert ROVER_POSITION_MODES <= set(ROVER_MODES)
