@@ -16,6 +16,7 @@ from django.utils import timezone
 
 from commands.models import Source
 from commands.services import command_ack, command_claim_open, command_enqueue
+from edge_client.contract.status import Status
 from fleet.demo_track import SimBoat, patrol_route
 from fleet.files import write_private
 from sms.services import authorised_number_authorise
@@ -153,8 +154,8 @@ class Command(BaseCommand):
             created_by=user.username,
         )
         command_claim_open(vessel=spab)
-        command_ack(vessel=spab, uid=done.uid, status="acknowledged")
-        command_ack(vessel=spab, uid=done.uid, status="done", detail="arrived")
+        command_ack(vessel=spab, uid=done.uid, status=Status.ACKNOWLEDGED)
+        command_ack(vessel=spab, uid=done.uid, status=Status.DONE, detail="arrived")
         mission = mission_save(mission=Mission(name="Matilda Bay loop", vessel=spab, end="loop"))
         mission_save_items(
             mission=mission,
