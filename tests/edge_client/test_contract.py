@@ -11,6 +11,7 @@ import importlib.util
 import inspect
 import os
 import re
+from pathlib import Path
 
 import pytest
 
@@ -192,3 +193,39 @@ def test_the_modes_that_need_a_position_are_one_table_on_the_boat_and_in_the_sim
 
     assert BOAT is ROVER_POSITION_MODES and SIM is ROVER_POSITION_MODES  # the sim lacked two
     assert ROVER_POSITION_MODES <= set(ROVER_MODES)
+
+
+def test_the_bridges_and_the_rebuild_loops_backoffs_are_the_contracts() -> None:
+    """The same waits as the doublings they replace, and no overflow after a long outage."""
+    from sms.bridge.process import HOUSEKEEPING_RETRY_MAX_S, housekeeping_retry_s
+    from telemetry.management.commands.rebuild_track_overview import (
+        RETRY_FIRST_S,
+        RETRY_MAX_S,
+        retry_delay,
+    )
+
+    for n in range(1, 200):
+        assert retry_delay(n) == min(RETRY_FIRST_S * 2.0 ** (n - 1), RETRY_MAX_S)
+        for tick in (0.05, 1.0):
+            cap = max(tick, HOUSEKEEPING_RETRY_MAX_S)
+            assert housekeeping_retry_s(tick, n) == min(tick * 2.0 ** (n - 1), cap)
+    assert retry_delay(10**6) == RETRY_MAX_S  # 2 ** (10**6 - 1) seconds would not fit a float
+
+
+# A doubling written out: `x * 2 ** n`, `2.0 ** n`, `*= 2`, `delay * 2`.
+DOUBLING = re.compile(r"\* ?2(\.0)? ?\*\*|\b2(\.0)? ?\*\* ?\(?(min|fail|attempt|n\b)|\*= ?2\b")
+
+
+def test_no_retry_loop_doubles_its_wait_by_hand() -> None:
+    """Every wait that doubles goes through edge_client.contract.backoff (four did not)."""
+    root = Path(__file__).resolve().parents[2]
+    found = [
+        f"{path.relative_to(root)}:{n}"
+        for app in ("edge_client", "sms", "telemetry", "commands", "vessels", "fleet", "operators")
+        for path in sorted((root / app).rglob("*.py"))
+        if "contract" not in path.parts
+        for n, line in enumerate(path.read_text().splitlines(), 1)
+        if DOUBLING.search(line.split("#")[0])
+    ]
+    # Doublings that are not waits: the series doubles a bucket width until the range fits.
+    assert found == ["telemetry/series.py:39"]
