@@ -84,6 +84,12 @@ READ_FROM_THE_CONTRACT = [
     "vessels/missions.py",
     "edge_client/commands.py",
     "edge_client/sim/mission.py",
+    "edge_client/mission.py",
+    "vessels/models.py",
+    "vessels/missionfiles/model.py",
+    "telemetry/models.py",
+    "telemetry/parsing.py",
+    "sms/language.py",
 ]
 
 
