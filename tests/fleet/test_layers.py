@@ -4,6 +4,7 @@ sms above those, fleet on top; the edge client stands alone (it runs on the boat
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 import tomllib
@@ -373,3 +374,21 @@ def test_no_module_is_over_600_lines() -> None:
     assert "edge_client/executor.py" in sizes  # the project was read
     long = {path: n for path, n in sizes.items() if n > MAX_LINES}
     assert long == {}
+
+
+# -- hand-written SQL ----------------------------------------------------------------------------
+# Each app's hand-written SQL lives in its sql.py, beside the benchmark that justifies it and
+# tested on every database (tests/<app>/test_sql.py); everything else goes through the ORM.
+RAW_SQL = re.compile(r"\bcursor\(|\.raw\(|\.execute(many)?\(|\bRawSQL\(|\.extra\(")
+
+
+def test_hand_written_sql_lives_only_in_each_apps_sql_module() -> None:
+    found = [
+        f"{path.relative_to(ROOT)}:{n}"
+        for app in LAYER
+        for path in sorted((ROOT / app).rglob("*.py"))
+        if path.name != "sql.py" and "migrations" not in path.parts
+        for n, line in enumerate(path.read_text().splitlines(), 1)
+        if RAW_SQL.search(line)
+    ]
+    assert found == []
