@@ -189,7 +189,7 @@ def _naive_body(Fix: Any, vessel: Any, start: dt.datetime, end: dt.datetime) -> 
 
 def ingest_cost(vessel: Any, start: dt.datetime) -> dict[str, float]:
     """ms per 500-fix batch of new fixes, with the overview's dirty marks and without."""
-    from telemetry import services
+    from telemetry import services, sql
 
     def batches(first: float) -> list[list[dict[str, Any]]]:
         return [
@@ -212,13 +212,13 @@ def ingest_cost(vessel: Any, start: dt.datetime) -> dict[str, float]:
     refresh_started = time.perf_counter()
     services.track_overview_refresh(vessel_id=vessel.pk)
     refresh = (time.perf_counter() - refresh_started) * 1000 / INGEST_BATCHES
-    mark, cte = services._mark_dirty, services._mark_dirty_cte
-    services._mark_dirty = lambda vessel_id, times: None  # type: ignore[assignment]
-    services._mark_dirty_cte = lambda: "dirty AS (SELECT %s)"  # type: ignore[assignment]
+    mark, cte = sql.mark_dirty, sql.mark_dirty_cte
+    sql.mark_dirty = lambda vessel_id, times: None  # type: ignore[assignment]
+    sql.mark_dirty_cte = lambda: "dirty AS (SELECT %s)"  # type: ignore[assignment]
     try:
         without = run(batches(base + 86400))
     finally:
-        services._mark_dirty, services._mark_dirty_cte = mark, cte
+        sql.mark_dirty, sql.mark_dirty_cte = mark, cte
     return {"with": with_marks, "without": without, "refresh": refresh}
 
 

@@ -13,18 +13,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from commands.errors import CatalogError
+from edge_client.contract import catalog as shared
+from edge_client.contract.catalog import MISSION_ENDS, MISSION_MAX_ITEMS, MISSION_MAX_MAVLINK_ITEMS
 from edge_client.contract.geo import distance_m
 from edge_client.contract.kinds import MAVLINK, ROVER_MODES, WAVE_GLIDER
-from vessels.missions import (
-    ENDS,
-    HOLD_MAX_S,
-    MISSION_MAX_ITEMS,
-    RADIUS_MAX_M,
-    RADIUS_MIN_M,
-    SPEED_MAX_MPS,
-    SPEED_MIN_MPS,
-    format_distance,
-)
+from vessels.missions import format_distance
 
 # Wave Glider waypoint table indices, 1-254 (docs/sms.md#the-language).
 WG_INDEX_MIN, WG_INDEX_MAX = 1, 254
@@ -146,37 +139,28 @@ def _fmt(number: float | None) -> str:
     return str(int(number)) if float(number).is_integer() else str(number)
 
 
-LAT = Param("lat", "float", "latitude, decimal degrees", minimum=-90, maximum=90)
-LON = Param("lon", "float", "longitude, decimal degrees", minimum=-180, maximum=180)
-HOLD_S = Param(
-    "hold_s", "float", "seconds to hold", minimum=0, maximum=HOLD_MAX_S, required=False, default=0.0
-)
-RADIUS_M = Param(
-    "radius_m",
-    "float",
-    "acceptance radius, metres",
-    minimum=RADIUS_MIN_M,
-    maximum=RADIUS_MAX_M,
-    required=False,
-    default=None,
-)
-SPEED_MPS = Param(
+def _ranged(name: str, kind: str, help_: str, **options: Any) -> Param:
+    """A parameter the boat checks too: its range is the contract's (shared.RANGES)."""
+    minimum, maximum = shared.RANGES[name]
+    return Param(name, kind, help_, minimum=minimum, maximum=maximum, **options)
+
+
+LAT = _ranged("lat", "float", "latitude, decimal degrees")
+LON = _ranged("lon", "float", "longitude, decimal degrees")
+HOLD_S = _ranged("hold_s", "float", "seconds to hold", required=False, default=0.0)
+RADIUS_M = _ranged("radius_m", "float", "acceptance radius, metres", required=False, default=None)
+SPEED_MPS = _ranged(
     "speed_mps",
     "float",
     "speed from this item on, m/s (ArduPilot DO_CHANGE_SPEED)",
-    minimum=SPEED_MIN_MPS,
-    maximum=SPEED_MAX_MPS,
     required=False,
     default=None,
 )
-MISSION_ITEM_PARAMS = (LAT, LON, HOLD_S, RADIUS_M, SPEED_MPS)
+_ITEM_SPECS = {p.name: p for p in (LAT, LON, HOLD_S, RADIUS_M, SPEED_MPS)}
+MISSION_ITEM_PARAMS = tuple(_ITEM_SPECS[name] for name in shared.MISSION_ITEM_PARAMS)
 _MISSION_ITEM_NAMES = frozenset(p.name for p in MISSION_ITEM_PARAMS)
-# How a mission ends: the boat stops at the last item, starts again from the first, or returns
-# home (ArduPilot: nothing, a DO_JUMP to item 1, a final NAV_RETURN_TO_LAUNCH).
-MISSION_ENDS = ENDS
-# ArduPilot keeps a mission in its storage area; on common boards (16 KiB) that holds 724 items
-# (AP_Mission: storage size / 15-byte packed items, less the header). Item 0 is home.
-MISSION_MAX_MAVLINK_ITEMS = 724
+# How a mission ends (MISSION_ENDS), how many items it may hold (MISSION_MAX_ITEMS) and how
+# many the autopilot stores (MISSION_MAX_MAVLINK_ITEMS): the contract's, imported above.
 
 
 def mission_mavlink_item_count(items: Sequence[Mapping[str, Any]], end: str) -> int:
@@ -245,44 +229,51 @@ def _wg_index(name: str, help_: str) -> Param:
     return Param(name, "int", help_, minimum=WG_INDEX_MIN, maximum=WG_INDEX_MAX)
 
 
+def _boat_kind(
+    name: str,
+    label: str,
+    *params: Param,
+    vessel_kinds: tuple[str, ...] = (MAVLINK,),
+    sms_word: str | None = None,
+) -> CommandKind:
+    """A kind a MAVLink boat runs: its parameter names (in order) and whether it navigates are
+    the contract's (shared.KIND_PARAMS, shared.NAVIGATION_KINDS), which the boat checks by."""
+    if tuple(p.name for p in params) != shared.KIND_PARAMS[name]:
+        raise ValueError(f"{name} takes the contract's parameters {shared.KIND_PARAMS[name]}")
+    navigation = name in shared.NAVIGATION_KINDS
+    return CommandKind(name, label, vessel_kinds, params, navigation, sms_word)
+
+
 _ON_OFF = ("on", "off")
 
 KINDS: dict[str, CommandKind] = {
     k.name: k
     for k in (
-        CommandKind("move_to", "Move to a point", (MAVLINK,), (LAT, LON), navigation=True),
-        CommandKind(
-            "hold", "Hold position", (MAVLINK, WAVE_GLIDER), navigation=True, sms_word="HOLD"
-        ),
-        CommandKind("resume", "Resume mission (AUTO)", (MAVLINK,), navigation=True),
-        CommandKind("return_home", "Return home (RTL)", (MAVLINK,), navigation=True),
-        CommandKind(
+        _boat_kind("move_to", "Move to a point", LAT, LON),
+        _boat_kind("hold", "Hold position", vessel_kinds=(MAVLINK, WAVE_GLIDER), sms_word="HOLD"),
+        _boat_kind("resume", "Resume mission (AUTO)"),
+        _boat_kind("return_home", "Return home (RTL)"),
+        _boat_kind(
             "set_mode",
             "Set autopilot mode",
-            (MAVLINK,),
-            (Param("mode", "choice", "ArduPilot Rover mode", choices=tuple(ROVER_MODES)),),
-            navigation=True,
+            Param("mode", "choice", "ArduPilot Rover mode", choices=tuple(ROVER_MODES)),
         ),
-        CommandKind("arm", "Arm motors", (MAVLINK,)),
-        CommandKind("disarm", "Disarm motors", (MAVLINK,)),
-        CommandKind(
+        _boat_kind("arm", "Arm motors"),
+        _boat_kind("disarm", "Disarm motors"),
+        _boat_kind(
             "mission",
             "Run a mission",
-            (MAVLINK,),
-            (
-                Param("mission_id", "int", "mission id on the server", minimum=1, required=False),
-                Param("items", "items", "waypoints [{lat, lon, hold_s, radius_m}]"),
-                Param("loop", "bool", "repeat the mission", required=False, default=False),
-                Param(
-                    "end",
-                    "choice",
-                    "stop, loop or return_home after the last item",
-                    choices=MISSION_ENDS,
-                    required=False,
-                    default=None,
-                ),
+            _ranged("mission_id", "int", "mission id on the server", required=False),
+            Param("items", "items", "waypoints [{lat, lon, hold_s, radius_m}]"),
+            Param("loop", "bool", "repeat the mission", required=False, default=False),
+            Param(
+                "end",
+                "choice",
+                "stop, loop or return_home after the last item",
+                choices=MISSION_ENDS,
+                required=False,
+                default=None,
             ),
-            navigation=True,
         ),
         CommandKind(
             "fhead",

@@ -7,6 +7,8 @@ into HTTP answers and form errors; views and admin actions do not catch them one
 
 from __future__ import annotations
 
+from edge_client.contract.status import Status
+
 
 class CommandError(ValueError):
     """A command request that cannot be carried out; ``message`` says why, ``field`` where."""
@@ -31,10 +33,10 @@ class CommandNotFound(CommandError):
 class TransitionError(CommandError):
     """The command's status cannot move to ``target`` from where it is (docs/api.md#boat-api-v1)."""
 
-    # ``str``, not ``commands.lifecycle.Status`` (a StrEnum, so a str): the lifecycle raises this
-    # error, and naming its enum here would tie the two modules into an import cycle.
+    # ``str``: a Status (a StrEnum) is one. The names are the contract's, which lies below the
+    # lifecycle, so reading it here ties no cycle.
     def __init__(self, current: str, target: str) -> None:
-        if target == "cancelled":
+        if target == Status.CANCELLED:
             message = f"command is {current}; it can no longer be cancelled"
         else:
             message = f"command is {current}; it cannot become {target}"

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from edge_client.catalog import KIND_PARAMS, MISSION_ENDS, MISSION_MAX_ITEMS, RANGES
+from edge_client.contract.catalog import KIND_PARAMS, MISSION_ENDS, MISSION_MAX_ITEMS, RANGES
 from edge_client.contract.kinds import ROVER_MODES
 
 
@@ -43,7 +43,7 @@ def parse_command(raw: Any) -> Command:
 
 
 def _number(value: Any, name: str) -> float:
-    """A finite number within the catalog's range for ``name`` (edge_client/catalog.py)."""
+    """A finite number within the catalog's range for ``name`` (edge_client.contract.catalog)."""
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise CommandError(f"{name} must be a number, got {value!r}")
     lo, hi = RANGES[name]
@@ -99,7 +99,8 @@ def _mission(params: dict[str, Any]) -> dict[str, Any]:
 def validate(kind: str, params: dict[str, Any]) -> dict[str, Any]:
     """Check a command's params (the server validated them too; a boat trusts no one).
 
-    The kinds, ranges, limits and mode names are the catalog's (edge_client/catalog.py).
+    The kinds, ranges, limits and mode names are the contract's (edge_client.contract), which
+    the server's catalog is built from.
     """
     if kind not in KIND_PARAMS:
         raise CommandError(f"unknown command kind {kind!r}")

@@ -41,10 +41,11 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
-from edge_client.catalog import NAVIGATION_KINDS
 from edge_client.commands import Command, CommandError, parse_command, validate
 from edge_client.config import CommandsConfig
 from edge_client.contract.backoff import doubled
+from edge_client.contract.catalog import NAVIGATION_KINDS
+from edge_client.contract.kinds import ROVER_POSITION_MODES
 from edge_client.contract.status import Status
 from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
 from edge_client.mission import (
@@ -66,11 +67,7 @@ ACKNOWLEDGED, DONE, FAILED = Status.ACKNOWLEDGED, Status.DONE, Status.FAILED
 SUPERSEDED = Status.SUPERSEDED  # replaced here by a newer command before it ended
 # Modes in which Rover drives by itself: entering one arms first (when allowed).
 MOVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL", "LOITER"})
-# Rover modes whose Mode::requires_position() is true (Rover/mode.h): refused until the EKF
-# has a position.
-POSITION_MODES = frozenset(
-    {"AUTO", "GUIDED", "LOITER", "FOLLOW", "CIRCLE", "DOCK", "RTL", "SMART_RTL"}
-)
+POSITION_MODES = ROVER_POSITION_MODES  # refused until the EKF has a position
 MODE_RETRY_S = 2.0  # between looks at the vehicle's reports while it gets its position
 # A refusal once the position is good is asked again after 0.5, 1, 2, 2 … s: Rover reports its
 # position about a second before its EKF failsafe clears (Rover/ekf_check.cpp counts 10 good

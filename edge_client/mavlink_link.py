@@ -7,10 +7,10 @@ silent autopilot and reopens a connection that failed (a USB serial adapter unpl
 Request/response exchanges (COMMAND_LONG → COMMAND_ACK, the mission protocol) are run by the
 caller's thread through a mailbox the reader fills; only one caller (the executor) uses them.
 
-References (common.xml): HEARTBEAT, COMMAND_LONG / COMMAND_ACK (MAV_CMD_DO_SET_MODE = 176,
-MAV_CMD_COMPONENT_ARM_DISARM = 400, MAV_CMD_SET_MESSAGE_INTERVAL = 511,
-MAV_CMD_REQUEST_MESSAGE = 512), SET_POSITION_TARGET_GLOBAL_INT, MISSION_SET_CURRENT,
-REQUEST_DATA_STREAM (deprecated, still honoured by ArduPilot, needed by old firmware).
+References (common.xml): HEARTBEAT, COMMAND_LONG / COMMAND_ACK (MAV_CMD_DO_SET_MODE,
+MAV_CMD_COMPONENT_ARM_DISARM, MAV_CMD_SET_MESSAGE_INTERVAL, MAV_CMD_REQUEST_MESSAGE),
+SET_POSITION_TARGET_GLOBAL_INT, MISSION_SET_CURRENT, REQUEST_DATA_STREAM (deprecated, still
+honoured by ArduPilot, needed by old firmware).
 
 MAVLink version: we start in MAVLink 1 (unless $MAVLINK20 is set) and pymavlink switches to
 MAVLink 2 as soon as the autopilot's first frame is a v2 one. Forcing v2 would leave an old
@@ -39,12 +39,15 @@ log = logging.getLogger(__name__)
 
 mavlink = mavutil.mavlink
 
-MAV_CMD_DO_SET_MODE = 176
-MAV_CMD_COMPONENT_ARM_DISARM = 400
-MAV_CMD_SET_MESSAGE_INTERVAL = 511
-MAV_CMD_REQUEST_MESSAGE = 512
-MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
-MAV_RESULT_ACCEPTED = 0
+# pymavlink's numbers (this module speaks MAVLink through it anyway).
+MAV_CMD_DO_SET_MODE = mavlink.MAV_CMD_DO_SET_MODE
+MAV_CMD_COMPONENT_ARM_DISARM = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
+MAV_CMD_SET_MESSAGE_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+MAV_CMD_REQUEST_MESSAGE = mavlink.MAV_CMD_REQUEST_MESSAGE
+MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+MAV_RESULT_ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
+# COMMAND_ACK results by name, as messages say them. Written out, not pymavlink's enum: the
+# pymavlink installed here (2.4.50) has no CANCELLED (6), which newer autopilots send.
 MAV_RESULTS = {
     0: "ACCEPTED",
     1: "TEMPORARILY_REJECTED",
@@ -54,10 +57,10 @@ MAV_RESULTS = {
     5: "IN_PROGRESS",
     6: "CANCELLED",
 }
-MAV_TYPE_ONBOARD_CONTROLLER = 18
-MAV_AUTOPILOT_INVALID = 8
-MAV_STATE_ACTIVE = 4
-MAV_FRAME_GLOBAL_RELATIVE_ALT_INT = 6
+MAV_TYPE_ONBOARD_CONTROLLER = mavlink.MAV_TYPE_ONBOARD_CONTROLLER
+MAV_AUTOPILOT_INVALID = mavlink.MAV_AUTOPILOT_INVALID
+MAV_STATE_ACTIVE = mavlink.MAV_STATE_ACTIVE
+MAV_FRAME_GLOBAL_RELATIVE_ALT_INT = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 # POSITION_TARGET_TYPEMASK: ignore velocity, acceleration, yaw and yaw rate → a position target.
 POSITION_ONLY_TYPEMASK = 0b0000_1101_1111_1000
 # Messages the client wants streamed (id → rate divisor: 1 = full stream rate).

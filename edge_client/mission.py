@@ -20,6 +20,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from edge_client.contract import mavcmd
+from edge_client.contract.catalog import HOLD_MAX_S
 from edge_client.contract.mavcmd import MavCmd
 
 # The MAV_CMD numbers are the contract's (the server reads mission files with the same ones);
@@ -36,25 +38,6 @@ MAV_MISSION_TYPE_MISSION = 0
 MAV_MISSION_ACCEPTED = 0
 MAV_MISSION_OPERATION_CANCELLED = 15
 
-MISSION_RESULTS = {
-    0: "MAV_MISSION_ACCEPTED",
-    1: "MAV_MISSION_ERROR",
-    2: "MAV_MISSION_UNSUPPORTED_FRAME",
-    3: "MAV_MISSION_UNSUPPORTED",
-    4: "MAV_MISSION_NO_SPACE",
-    5: "MAV_MISSION_INVALID",
-    6: "MAV_MISSION_INVALID_PARAM1",
-    7: "MAV_MISSION_INVALID_PARAM2",
-    8: "MAV_MISSION_INVALID_PARAM3",
-    9: "MAV_MISSION_INVALID_PARAM4",
-    10: "MAV_MISSION_INVALID_PARAM5_X",
-    11: "MAV_MISSION_INVALID_PARAM6_Y",
-    12: "MAV_MISSION_INVALID_PARAM7",
-    13: "MAV_MISSION_INVALID_SEQUENCE",
-    14: "MAV_MISSION_DENIED",
-    15: "MAV_MISSION_OPERATION_CANCELLED",
-}
-
 EXCHANGE_TIMEOUT_S = 1.5  # mission protocol default timeout
 ITEM_TIMEOUT_S = 0.25  # per-item timeout when we are the side requesting items
 MAX_RETRIES = 5
@@ -65,13 +48,13 @@ FIRST_ITEM = 1
 # ArduPilot keeps a waypoint's hold time in whole seconds (AP_Mission stores NAV_WAYPOINT
 # param1 in the 16-bit ``p1``), and Rover reads it as signed: ``(int16_t)cmd.p1 < 0 ? 0``
 # (Rover/mode_auto.cpp ``do_nav_wp``). A longer hold would silently become no hold at all.
-ROVER_MAX_HOLD_S = 32767
+ROVER_MAX_HOLD_S = int(HOLD_MAX_S)  # the contract's, which the server checks too
 
 
 def result_name(code: int | None) -> str:
     if code is None:
         return "no MISSION_ACK"
-    return MISSION_RESULTS.get(code, f"MAV_MISSION_RESULT {code}")
+    return mavcmd.name("MAV_MISSION_RESULT", code) or f"MAV_MISSION_RESULT {code}"
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,8 @@ Pure (the catalog is pure): no ORM, no request. The map offers the everyday navi
 light commands (issue 9 §4); every other kind stays in the admin's command form. How an
 action takes its parameters follows from the catalog's own parameter list:
 ``point`` (lat and lon: click the map), ``bearing`` (click the map, the bearing from the
-vessel), ``choice`` (one button per allowed value) or nothing (one button).
+vessel; or type one, within the action's ``min`` and ``max``), ``choice`` (one button per
+allowed value) or nothing (one button).
 """
 
 from __future__ import annotations
@@ -30,7 +31,11 @@ def map_actions(vessel_kind: str) -> list[dict[str, Any]]:
         if names == ["lat", "lon"]:
             action["input"] = "point"
         elif names == ["bearing"]:
-            action.update(input="bearing", param="bearing")
+            # The catalog's range, so the typed heading is checked as the server will.
+            bearing = kind.params[0]
+            action.update(
+                input="bearing", param="bearing", min=bearing.minimum, max=bearing.maximum
+            )
         elif len(kind.params) == 1 and kind.params[0].kind == "choice":
             param = kind.params[0]
             action.update(input="choice", param=param.name, choices=list(param.choices))

@@ -383,7 +383,7 @@ FIX_MAX_BATCH = env_int("FIX_MAX_BATCH", 5000)
 FIX_MAX_FUTURE_S = env_int("FIX_MAX_FUTURE_S", 300)
 # Writing last_used_at on every poll would serialise polls on SQLite's write lock.
 KEY_TOUCH_INTERVAL_S = env_int("KEY_TOUCH_INTERVAL_S", 60)
-# PostgreSQL: the single-fix post's statement is prepared once per connection (vessels/prepared.py).
+# PostgreSQL: the single-fix post is prepared once per connection (vessels.sql.execute_prepared).
 # Off (0) behind a pooler in transaction mode that loses prepared statements (pgBouncer < 1.21).
 DB_PREPARED_STATEMENTS = env_bool("DB_PREPARED_STATEMENTS", True)
 COMMAND_DEFAULT_TTL_S = env_int("COMMAND_DEFAULT_TTL_S", 24 * 3600)

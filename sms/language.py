@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 from commands import catalog
 from commands.errors import CatalogError
+from edge_client.contract import fix as fix_shape
 from sms.gsm7 import SMS_SEPTETS, septets, to_gsm7
 from sms.level2.errors import CommandRefused
 
@@ -305,7 +306,7 @@ _MINUTES = re.compile(r"([0-9]{1,2}(?:\.[0-9]*)?)([NSEWnsew]?)")
 _HEMISPHERES = {"lat": ("N", "S"), "lon": ("E", "W")}
 _LETTERS = frozenset("NSEW")
 MINUTES_PER_DEGREE = 60
-LAT_MAX = 90  # degrees: more can only be a longitude's
+LAT_MAX = fix_shape.RANGES["lat"][1]  # degrees: more can only be a longitude's
 COORDINATE_FORMS = "-32.0380 115.3325 or 32 02.28S 115 19.95E"
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 from django.db import models
 from django.db.models import Q
 
-from vessels.models import Vessel
+from vessels.models import IN_RANGE, Vessel
 
 
 class Fix(models.Model):
@@ -25,7 +25,7 @@ class Fix(models.Model):
             # Also the index for (vessel, time range) queries: vessel_id first, then time.
             models.UniqueConstraint(fields=["vessel", "recorded_at"], name="fix_unique_time"),
             models.CheckConstraint(
-                condition=Q(lat__gte=-90, lat__lte=90, lon__gte=-180, lon__lte=180),
+                condition=IN_RANGE,  # the contract's range, as the parser's
                 name="fix_latlon_range",
             ),
             models.CheckConstraint(

@@ -124,16 +124,16 @@ def _position(
     lat_raw: Any, lon_raw: Any, errors: dict[str, str], names: tuple[str, str] = ("lat", "lon")
 ) -> tuple[float, float]:
     lat, lon = _number(lat_raw), _number(lon_raw)
-    for name, raw, value, limit in (
-        (names[0], lat_raw, lat, 90.0),
-        (names[1], lon_raw, lon, 180.0),
+    for name, raw, value, (lo, hi) in (
+        (names[0], lat_raw, lat, fix_shape.RANGES["lat"]),
+        (names[1], lon_raw, lon, fix_shape.RANGES["lon"]),
     ):
         if raw is None:
             errors[name] = "is required"
         elif value is None:
             errors[name] = "must be a number"
-        elif not -limit <= value <= limit:
-            errors[name] = f"must be between {-limit:g} and {limit:g}"
+        elif not lo <= value <= hi:
+            errors[name] = f"must be between {lo:g} and {hi:g}"
     return lat or 0.0, lon or 0.0
 
 

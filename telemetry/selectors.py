@@ -1,5 +1,6 @@
-"""Telemetry reads: a vessel's fixes in a range, and the nearest fix to a time. The track
-overview's reads are written out, in telemetry.sql."""
+"""Telemetry reads through the ORM: a vessel's fixes in a range, and the nearest fix to a time.
+The reads written out in SQL (the track overview's, the exports') are telemetry.sql's, and
+their callers import them from there."""
 
 from __future__ import annotations
 
@@ -8,9 +9,6 @@ import datetime as dt
 from django.db.models import QuerySet
 
 from telemetry.models import Fix
-
-# telemetry.services' overview rebuild reads these here (kept while its ingest is rewritten).
-from telemetry.sql import buckets, column_names, raw_fixes  # noqa: F401
 from vessels.models import Vessel
 
 

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import datetime as dt
-import functools
-import json
 import logging
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -14,22 +12,19 @@ from django.db import DatabaseError, connection, transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
+from edge_client.contract import fix as fix_shape
 from edge_client.contract.batch import BatchAnswer
-from telemetry import selectors
+from telemetry import sql
 from telemetry.errors import BatchTooLarge, KeyRefused
 from telemetry.models import Fix, SensorChannel, TrackBucket, TrackDirty
-from telemetry.overview import WIDTHS, Summary, bucket_start, group_by_bucket, merge, summarize
+from telemetry.overview import WIDTHS, bucket_start, group_by_bucket, merge, summarize
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
 from vessels.database import database_unavailable
 from vessels.models import Vessel
-from vessels.prepared import execute_prepared
-from vessels.selectors import key_valid_sql, vessel_key_works
-from vessels.services import vessel_record_fix, vessel_record_fix_statement
+from vessels.selectors import vessel_key_works
+from vessels.services import vessel_record_fix
 
 logger = logging.getLogger(__name__)
-
-# Rows per INSERT: 9 parameters each stays far below SQLite's 32,766-variable limit.
-INSERT_CHUNK = 1000
 
 
 IngestResult = BatchAnswer  # the telemetry upload's answer is the contract's batch answer
@@ -106,223 +101,44 @@ def _store(
 def _store_once(
     vessel: Vessel, fixes: dict[dt.datetime, FixData], now: dt.datetime, key_id: int | None
 ) -> list[Any]:
-    if 0 < len(fixes) <= INSERT_CHUNK:
-        if connection.vendor == "postgresql":
-            return _store_postgres_in_one_statement(vessel, list(fixes.values()), now, key_id)
-        if connection.vendor == "sqlite":
-            return _store_sqlite_in_one_transaction(vessel, list(fixes.values()), now, key_id)
+    batch = list(fixes.values())
+    if 0 < len(batch) <= sql.INSERT_CHUNK and connection.vendor in ("postgresql", "sqlite"):
+        return _store_small(vessel, batch, now, key_id)
     with transaction.atomic():
         if key_id is not None and not vessel_key_works(key_id):
             raise KeyRefused
-        inserted = _insert_new(vessel.pk, list(fixes.values()), now)
-        _mark_dirty(vessel.pk, inserted)
+        inserted = sql.insert_new(vessel.pk, batch, now)
+        sql.mark_dirty(vessel.pk, inserted)
         _advance_last_fix(vessel, [fixes[t] for t in inserted], now)
     return inserted
 
 
-def _store_sqlite_in_one_transaction(
-    vessel: Vessel, fixes: list[FixData], now: dt.datetime, key_id: int | None
+def _store_small(
+    vessel: Vessel, batch: list[FixData], now: dt.datetime, key_id: int | None
 ) -> list[dt.datetime]:
-    """Insert the fixes, mark their minutes and advance the vessel: three statements in one
-    transaction, every one of them built before it begins.
-
-    BEGIN IMMEDIATE takes SQLite's one write lock for the whole database: the other workers'
-    posts wait for it (sleeping in SQLite's busy handler, 1 ms at first, then longer), so the
-    lock is held only for the three library calls and COMMIT, not for the Python that builds
-    them (benchmark: `python -m bench.server --single-only`, issue 17 item 8). The marks and the
-    last fix are built for every fix of the batch; only when some were duplicates (a
-    store-and-forward retry) are they built again, under the lock, for the new ones alone.
-    With ``key_id``, the insert carries the key's check; fewer rows than fixes then means
-    duplicates or a key that no longer works, which one is asked under the same lock.
-    """
-    newest = max(fixes, key=lambda f: f.recorded_at)
-    insert = _insert_sqlite_statement(vessel.pk, now, fixes, key_id)
-    mark = _mark_dirty_statement(vessel.pk, [f.recorded_at for f in fixes])
-    record = vessel_record_fix_statement(
-        vessel_id=vessel.pk, seen_at=now, fix_at=newest.recorded_at, summary=fix_summary(newest)
-    )
-    by_time = {_key(f.recorded_at): f for f in fixes}
-    with transaction.atomic(), connection.cursor() as cursor:
-        cursor.execute(*insert)
-        new = [by_time[_key(row[0])] for row in cursor.fetchall()]
-        if len(new) == len(fixes):
-            if mark:
-                cursor.execute(*mark)
-            cursor.execute(*record)
-        else:
+    """A batch in one statement (PostgreSQL) or one short transaction (SQLite): the single-fix
+    post, the boat's everyday request (bench.server, issue 17 item 8)."""
+    newest = max(batch, key=lambda f: f.recorded_at)
+    summary = fix_summary(newest)
+    if connection.vendor == "postgresql":
+        inserted = sql.insert_with_vessel(
+            vessel.pk, batch, now, newest=newest, summary=summary, key_id=key_id
+        )
+        if inserted is None:
+            raise KeyRefused
+        return inserted
+    with transaction.atomic():
+        new, finished = sql.insert_sqlite_in_one_transaction(
+            vessel.pk, batch, now, newest=newest, summary=summary, key_id=key_id
+        )
+        if not finished:
+            # Duplicates (a store-and-forward retry) or a key that no longer works: which one
+            # is asked under the same lock; the marks and the vessel then for the new alone.
             if key_id is not None and not vessel_key_works(key_id):
                 raise KeyRefused
-            _mark_dirty(vessel.pk, [f.recorded_at for f in new])
+            sql.mark_dirty(vessel.pk, [f.recorded_at for f in new])
             _advance_last_fix(vessel, new, now)
     return [f.recorded_at for f in new]
-
-
-FIX_COLUMNS = (
-    "vessel_id",
-    "recorded_at",
-    "received_at",
-    "lat",
-    "lon",
-    "heading_deg",
-    "speed_mps",
-    "battery_v",
-    "readings",
-)
-
-
-def _insert_new(vessel_id: int, fixes: list[FixData], now: dt.datetime) -> list[dt.datetime]:
-    """Insert ``fixes``; return the recorded_at of those that were new.
-
-    INSERT … ON CONFLICT DO NOTHING RETURNING tells exactly which fixes were new, even when
-    two requests race with the same fixes. SQLite gets multi-row VALUES; PostgreSQL gets the
-    whole chunk as one JSON document unpacked by jsonb_to_recordset() (psycopg re-parsed a
-    4,500-placeholder statement on every batch: profiled at half the request).
-    """
-    insert = _insert_postgres if connection.vendor == "postgresql" else _insert_sqlite
-    inserted: list[dt.datetime] = []
-    for start in range(0, len(fixes), INSERT_CHUNK):
-        chunk = fixes[start : start + INSERT_CHUNK]
-        by_time = {_key(f.recorded_at): f.recorded_at for f in chunk}
-        # PostgreSQL returns aware datetimes, SQLite's driver naive ones: compare as naive UTC.
-        inserted += [by_time[_key(value)] for value in insert(vessel_id, now, chunk)]
-    return inserted
-
-
-@functools.cache
-def _insert_head() -> str:
-    qn = connection.ops.quote_name
-    return f"INSERT INTO {qn(Fix._meta.db_table)} ({', '.join(qn(c) for c in FIX_COLUMNS)}) "
-
-
-@functools.cache
-def _insert_tail() -> str:
-    qn = connection.ops.quote_name
-    return (
-        f" ON CONFLICT ({qn('vessel_id')}, {qn('recorded_at')}) DO NOTHING"
-        f" RETURNING {qn('recorded_at')}"
-    )
-
-
-def _insert_sqlite(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> list[Any]:
-    with connection.cursor() as cursor:
-        cursor.execute(*_insert_sqlite_statement(vessel_id, now, fixes))
-        return [r[0] for r in cursor.fetchall()]
-
-
-def _insert_sqlite_statement(
-    vessel_id: int, now: dt.datetime, fixes: list[FixData], key_id: int | None = None
-) -> tuple[str, list[Any]]:
-    # The backend's own adapters, straight: the field layer around them cost more per fix
-    # than the insert (profiled). Values are already validated aware-UTC datetimes and dicts.
-    adapt_time, adapt_json = (
-        connection.ops.adapt_datetimefield_value,
-        connection.ops.adapt_json_value,
-    )
-    received = adapt_time(now)
-    params = [
-        value
-        for f in fixes
-        for value in (vessel_id, adapt_time(f.recorded_at), received, f.lat, f.lon,
-                      f.heading_deg, f.speed_mps, f.battery_v, adapt_json(f.readings, None))
-    ]  # fmt: skip
-    values = _sqlite_values(len(fixes))
-    if key_id is None:
-        return _insert_head() + values + _insert_tail(), params
-    # SQLite reads ON CONFLICT after INSERT … SELECT only when the SELECT has a WHERE: it has.
-    checked = f"SELECT * FROM ({values}) WHERE {key_valid_sql(connection.vendor)}"
-    return _insert_head() + checked + _insert_tail(), [*params, key_id]
-
-
-@functools.lru_cache(maxsize=16)
-def _sqlite_values(rows: int) -> str:
-    row = "(" + ", ".join(["%s"] * len(FIX_COLUMNS)) + ")"
-    return f"VALUES {', '.join([row] * rows)}"
-
-
-_PG_RECORD = "t timestamptz, lat float8, lon float8, h float8, s float8, b float8, r jsonb"
-
-
-def _insert_postgres(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> list[Any]:
-    sql, params = _insert_postgres_statement(vessel_id, now, fixes)
-    with connection.cursor() as cursor:
-        cursor.execute(sql, params)
-        return [r[0] for r in cursor.fetchall()]
-
-
-def _insert_postgres_statement(
-    vessel_id: int, now: dt.datetime, fixes: list[FixData], where: str = ""
-) -> tuple[str, list[Any]]:
-    document = json.dumps([
-        {"t": f.recorded_at.isoformat(), "lat": f.lat, "lon": f.lon, "h": f.heading_deg,
-         "s": f.speed_mps, "b": f.battery_v, "r": f.readings}
-        for f in fixes
-    ])  # fmt: skip
-    sql = (
-        _insert_head()
-        + "SELECT %s, u.t, %s, u.lat, u.lon, u.h, u.s, u.b, u.r "
-        + f"FROM jsonb_to_recordset(%s::jsonb) AS u({_PG_RECORD})"
-        + (f" WHERE {where}" if where else "")
-        + _insert_tail()
-    )
-    return sql, [vessel_id, now, document]
-
-
-def _store_postgres_in_one_statement(
-    vessel: Vessel, fixes: list[FixData], now: dt.datetime, key_id: int | None
-) -> list[dt.datetime]:
-    """Insert the fixes and advance the vessel in ONE statement, outside any transaction.
-
-    A single statement is its own transaction on PostgreSQL, so this costs one round trip
-    where BEGIN, INSERT, UPDATE and COMMIT cost four (a legacy client posts one fix per
-    request; the round trips were most of it). The vessel takes the batch's newest fix
-    only if that one was new (the `newest` CTE reads the insert's RETURNING rows); an older
-    new fix of the same batch could not be newer than the vessel's last fix anyway. The
-    `dirty` CTE marks the new fixes' minutes for the track overview in the same statement.
-    With ``key_id``, the `key` CTE checks the key once and every write waits on it; a NULL
-    row in the answer says it no longer works (and nothing was written). Prepared once per
-    connection (vessels.prepared): planning it was half of its time in the database.
-    """
-    newest = max(fixes, key=lambda f: f.recorded_at)
-    key_cte, works = "", ""
-    key_params: list[Any] = []
-    if key_id is not None:
-        key_cte = f"key AS (SELECT {key_valid_sql(connection.vendor)} AS works), "
-        key_params, works = [key_id], "(SELECT works FROM key)"
-    insert_sql, insert_params = _insert_postgres_statement(vessel.pk, now, fixes, works)
-    update_sql, update_params = vessel_record_fix_statement(
-        vessel_id=vessel.pk,
-        seen_at=now,
-        fix_at=newest.recorded_at,
-        summary=fix_summary(newest),
-        also_if="EXISTS (SELECT 1 FROM newest)",
-        only_if=(works, ()),
-    )
-    sql = (
-        f"WITH {key_cte}inserted AS ({insert_sql}), "
-        "newest AS (SELECT 1 FROM inserted WHERE recorded_at = %s), "
-        f"vessel AS ({update_sql}), "
-        f"{_mark_dirty_cte()} "
-        "SELECT recorded_at FROM inserted"
-        + (" UNION ALL SELECT NULL FROM key WHERE NOT works" if key_id is not None else "")
-    )
-    params = [*key_params, *insert_params, newest.recorded_at, *update_params, vessel.pk]
-    by_time = {_key(f.recorded_at): f.recorded_at for f in fixes}
-    with connection.cursor() as cursor:
-        execute_prepared(cursor, sql, params)
-        rows = cursor.fetchall()
-    if any(row[0] is None for row in rows):
-        raise KeyRefused
-    return [by_time[_key(row[0])] for row in rows]
-
-
-def _key(value: Any) -> dt.datetime:
-    """Naive UTC, from stored text, a naive UTC datetime or an aware one."""
-    if isinstance(value, dt.datetime):
-        if value.tzinfo is None:
-            return value
-        return value.astimezone(dt.UTC).replace(tzinfo=None)
-    text = str(value)
-    return dt.datetime.fromisoformat(text).replace(tzinfo=None)
 
 
 def _advance_last_fix(vessel: Vessel, new: list[FixData], now: dt.datetime) -> None:
@@ -336,6 +152,10 @@ def _advance_last_fix(vessel: Vessel, new: list[FixData], now: dt.datetime) -> N
     )
 
 
+# A fix's numbers a boat may leave out (all but lat and lon), in the wire shape's order.
+_OPTIONAL_NUMBERS = tuple(n for n in fix_shape.NUMBERS if n not in fix_shape.REQUIRED)
+
+
 def fix_summary(fix: FixData | Fix) -> dict[str, Any]:
     """A fix as the boat API takes it (docs/api.md): the copy kept on Vessel.last_fix, and what
     the glider's shore link posts to ``boat/telemetry/``."""
@@ -344,7 +164,7 @@ def fix_summary(fix: FixData | Fix) -> dict[str, Any]:
         "lat": fix.lat,
         "lon": fix.lon,
     }
-    for name in ("heading_deg", "speed_mps", "battery_v"):
+    for name in _OPTIONAL_NUMBERS:
         value = getattr(fix, name)
         if value is not None:
             summary[name] = value
@@ -368,62 +188,6 @@ DIRTY_RUN_JOIN_S = 1800
 REBUILD_WINDOW_S = 86400
 
 
-# PostgreSQL: an existing mark is updated to itself rather than left alone: the update locks the
-# row until the ingest commits, so a refresh that claims (deletes) the mark meanwhile waits, and
-# then reads the new fixes. DO NOTHING takes no lock: a refresh could claim the mark and rebuild
-# before the ingest committed, leaving its fixes out of the overview for good.
-_KEEP_MARK_LOCKED = 'DO UPDATE SET "start" = EXCLUDED."start"'
-# SQLite: DO NOTHING, and the row is not written again. Its writers take the database's one write
-# lock at BEGIN (IMMEDIATE) and keep it to COMMIT, so a refresh cannot claim the mark between
-# this ingest's check and its commit: it runs wholly before (the mark is then new) or after
-# (and reads the new fixes).
-_MARK_CONFLICT = {"postgresql": _KEEP_MARK_LOCKED, "sqlite": "DO NOTHING"}
-
-
-def _dirty_minutes(times: Sequence[dt.datetime]) -> list[int]:
-    return sorted({bucket_start(t.timestamp(), WIDTHS[0]) for t in times})
-
-
-def _mark_dirty(vessel_id: int, times: Sequence[dt.datetime]) -> None:
-    """Mark the minutes of newly stored fixes out of date (same transaction as the fixes)."""
-    statement = _mark_dirty_statement(vessel_id, times)
-    if statement is None:
-        return
-    with connection.cursor() as cursor:
-        cursor.execute(*statement)
-
-
-def _mark_dirty_statement(
-    vessel_id: int, times: Sequence[dt.datetime]
-) -> tuple[str, list[Any]] | None:
-    """:func:`_mark_dirty` as (sql, params); None when there is nothing to mark."""
-    minutes = _dirty_minutes(times)
-    if not minutes:
-        return None
-    qn = connection.ops.quote_name
-    table = qn(TrackDirty._meta.db_table)
-    rows = ", ".join(["(%s, %s)"] * len(minutes))
-    conflict = _MARK_CONFLICT.get(connection.vendor, _KEEP_MARK_LOCKED)
-    sql = (
-        f"INSERT INTO {table} ({qn('vessel_id')}, {qn('start')}) VALUES {rows}"
-        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) {conflict}"
-    )
-    return sql, [value for m in minutes for value in (vessel_id, m)]
-
-
-def _mark_dirty_cte() -> str:
-    """The same marks as _mark_dirty, as a CTE over the `inserted` rows (PostgreSQL)."""
-    qn = connection.ops.quote_name
-    table = qn(TrackDirty._meta.db_table)
-    minute = WIDTHS[0]
-    return (
-        f"dirty AS (INSERT INTO {table} ({qn('vessel_id')}, {qn('start')})"
-        f" SELECT DISTINCT %s, (floor(extract(epoch FROM recorded_at) / {minute}) * {minute})"
-        "::bigint FROM inserted"
-        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) {_KEEP_MARK_LOCKED})"
-    )
-
-
 def track_overview_refresh(*, vessel_id: int, max_span_s: int | None = None) -> int:
     """Rebuild the overview buckets of the vessel's dirty minutes; how many minutes.
 
@@ -435,17 +199,8 @@ def track_overview_refresh(*, vessel_id: int, max_span_s: int | None = None) -> 
     """
     if not TrackDirty.objects.filter(vessel_id=vessel_id).exists():
         return 0
-    qn = connection.ops.quote_name
-    table, vessel, start = qn(TrackDirty._meta.db_table), qn("vessel_id"), qn("start")
-    sql = f"DELETE FROM {table} WHERE {vessel} = %s"
-    params: list[Any] = [vessel_id]
-    if max_span_s is not None:
-        sql += f" AND {start} < (SELECT MIN({start}) FROM {table} WHERE {vessel} = %s) + %s"
-        params += [vessel_id, max_span_s]
     with transaction.atomic():
-        with connection.cursor() as cursor:
-            cursor.execute(f"{sql} RETURNING {start}", params)
-            minutes = sorted(row[0] for row in cursor.fetchall())
+        minutes = sql.dirty_claim(vessel_id, max_span_s)
         for lo, hi in _runs(minutes):
             _rebuild_range(vessel_id, lo, hi)
     return len(minutes)
@@ -492,47 +247,18 @@ def track_overview_rebuild(*, vessel: Vessel) -> None:
 
 def _rebuild_range(vessel_id: int, lo: int, hi: int) -> None:
     """Rebuild every level's buckets touching [lo, hi) (minute-aligned)."""
-    fixes = selectors.raw_fixes(vessel_id, lo, hi)
+    fixes = sql.raw_fixes(vessel_id, lo, hi)
     minute = WIDTHS[0]
     groups = group_by_bucket(fixes, minute, lambda f: f[0])
-    _replace_buckets(
+    sql.replace_buckets(
         vessel_id, minute, lo, hi, [summarize(start, group) for start, group in groups.items()]
     )
     for finer, width in zip(WIDTHS, WIDTHS[1:], strict=False):
         lo, hi = bucket_start(lo, width), -(-hi // width) * width
-        parts = selectors.buckets(vessel_id, finer, lo, hi)
+        parts = sql.buckets(vessel_id, finer, lo, hi)
         groups = group_by_bucket(parts, width, lambda s: s.start)
         merged = [merge(start, group) for start, group in groups.items()]
-        _replace_buckets(vessel_id, width, lo, hi, merged)
-
-
-def _replace_buckets(
-    vessel_id: int, width: int, lo: int, hi: int, summaries: list[Summary]
-) -> None:
-    """Replace the buckets of ``width`` starting in [lo, hi) with ``summaries``.
-
-    Plain DELETE and executemany: a month of minutes is ~45,000 rows, and building a model
-    instance per row cost more than the insert (profiled, bench.maps).
-    """
-    b = selectors.column_names(TrackBucket)
-    with connection.cursor() as cursor:
-        cursor.execute(
-            f"DELETE FROM {b['table']} WHERE {b['vessel']} = %s AND {b['width']} = %s"
-            f" AND {b['start']} >= %s AND {b['start']} < %s",
-            [vessel_id, width, lo, hi],
-        )
-        if not summaries:
-            return
-        cursor.executemany(
-            f"INSERT INTO {b['table']} ({b['vessel']}, {b['width']}, {b['start']}, {b['count']},"
-            f" {b['points']}, {b['channels']}) VALUES (%s, %s, %s, %s, %s, %s)",
-            [
-                (vessel_id, width, s.start, s.count, json.dumps(
-                    [s.first, s.last, s.north, s.south, s.east, s.west, *(s.gap or (None, None))]
-                ), json.dumps(s.channels))
-                for s in summaries
-            ],
-        )  # fmt: skip
+        sql.replace_buckets(vessel_id, width, lo, hi, merged)
 
 
 def fixes_delete(*, fixes: QuerySet[Fix]) -> int:
@@ -542,7 +268,7 @@ def fixes_delete(*, fixes: QuerySet[Fix]) -> int:
         for vessel_id, recorded_at in fixes.values_list("vessel_id", "recorded_at").iterator():
             marks.setdefault(vessel_id, []).append(recorded_at)
         for vessel_id, times in marks.items():
-            for start in range(0, len(times), INSERT_CHUNK):
-                _mark_dirty(vessel_id, times[start : start + INSERT_CHUNK])
+            for start in range(0, len(times), sql.INSERT_CHUNK):
+                sql.mark_dirty(vessel_id, times[start : start + sql.INSERT_CHUNK])
         deleted, _ = Fix.objects.filter(pk__in=fixes.values("pk")).delete()
     return deleted

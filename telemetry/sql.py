@@ -1,8 +1,6 @@
 """The telemetry app's hand-written SQL, each statement beside the benchmark that justifies
-it: the track overview's reads and the fix exports.
-
-Not here yet: the fix ingest's and the overview rebuild's statements (telemetry.services,
-being rewritten for the single post), each with its reason beside it there.
+it: the track overview's reads, the fix exports, the fix ingest and the overview's writes.
+Each is tested on every database by tests/telemetry/test_sql.py.
 """
 
 from __future__ import annotations
@@ -10,13 +8,17 @@ from __future__ import annotations
 import datetime as dt
 import functools
 import json
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 from django.db import connection
 
+from edge_client.contract import fix as fix_shape
 from telemetry.models import Fix, TrackBucket, TrackDirty
-from telemetry.overview import WIDTHS, RawFix, Summary
+from telemetry.overview import WIDTHS, RawFix, Summary, bucket_start
+from telemetry.parsing import FixData
+from vessels import sql as vessels_sql
+from vessels.sql import execute_prepared
 
 # -- Shared by every statement: times and JSON as the database writes them ----------------------
 
@@ -159,8 +161,11 @@ def dirty_minutes(vessel_id: int, lo: float, hi: float) -> list[int]:
 
 # Rows read from the cursor at a time: memory stays flat whatever the range.
 EXPORT_CHUNK = 5000
-# The fix's numbers in every export, in column order (between `time` and `readings`).
-EXPORT_NUMBERS = ("lat", "lon", "heading_deg", "speed_mps", "battery_v")
+# The fix's numbers in every export, in column order (between `time` and `readings`): the
+# contract's wire shape (edge_client.contract.fix).
+EXPORT_NUMBERS = fix_shape.NUMBERS
+# A GeoJSON feature's properties after its time: every value but the point's own.
+FEATURE_PROPERTIES = tuple(n for n in fix_shape.FIELDS if n not in ("time", "lat", "lon"))
 QUOTE = '"'
 # An export row: (time as ISO text, Unix seconds, lat, lon, heading, speed, battery, readings
 # as JSON text).
@@ -269,13 +274,320 @@ def feature_line_sql() -> str:
         _text("lat", "null"),
         _literal(']},"properties":{"time":"'),
         _time(),
-        _literal('","heading_deg":'),
-        _text("heading_deg", "null"),
-        _literal(',"speed_mps":'),
-        _text("speed_mps", "null"),
-        _literal(',"battery_v":'),
-        _text("battery_v", "null"),
-        _literal(',"readings":'),
-        _text("readings", "{}"),
+        *(
+            part
+            for i, name in enumerate(FEATURE_PROPERTIES)
+            for part in (
+                _literal(f'{"" if i else QUOTE},"{name}":'),  # the first closes the time
+                _text(name, "{}" if name == "readings" else "null"),
+            )
+        ),
         _literal("}}"),
     )
+
+
+# -- Fix ingest (telemetry.services.fix_ingest) -------------------------------------------------
+#
+# Benchmark: bench.server (single-fix posts against a naive DRF view, and batches); a single
+# post's statements are pinned by tests/telemetry/test_boat_api.py. INSERT … ON CONFLICT DO
+# NOTHING RETURNING tells exactly which fixes were new, even when two requests race with the
+# same fixes: the ORM's bulk_create cannot say which rows it skipped.
+
+# Rows per INSERT: 9 parameters each stays far below SQLite's 32,766-variable limit.
+INSERT_CHUNK = 1000
+FIX_COLUMNS = ("vessel_id", "recorded_at", "received_at", "lat", "lon", "heading_deg",
+               "speed_mps", "battery_v", "readings")  # fmt: skip
+
+
+def insert_new(vessel_id: int, fixes: list[FixData], now: dt.datetime) -> list[dt.datetime]:
+    """Insert ``fixes``; return the recorded_at of those that were new.
+
+    SQLite gets multi-row VALUES; PostgreSQL gets the whole chunk as one JSON document unpacked
+    by jsonb_to_recordset() (psycopg re-parsed a 4,500-placeholder statement on every batch:
+    profiled at half the request).
+    """
+    insert = _insert_postgres if connection.vendor == "postgresql" else _insert_sqlite
+    inserted: list[dt.datetime] = []
+    for start in range(0, len(fixes), INSERT_CHUNK):
+        chunk = fixes[start : start + INSERT_CHUNK]
+        by_time = {_key(f.recorded_at): f.recorded_at for f in chunk}
+        # PostgreSQL returns aware datetimes, SQLite's driver naive ones: compare as naive UTC.
+        inserted += [by_time[_key(value)] for value in insert(vessel_id, now, chunk)]
+    return inserted
+
+
+@functools.cache
+def _insert_head() -> str:
+    qn = connection.ops.quote_name
+    return f"INSERT INTO {qn(Fix._meta.db_table)} ({', '.join(qn(c) for c in FIX_COLUMNS)}) "
+
+
+@functools.cache
+def _insert_tail() -> str:
+    qn = connection.ops.quote_name
+    return (
+        f" ON CONFLICT ({qn('vessel_id')}, {qn('recorded_at')}) DO NOTHING"
+        f" RETURNING {qn('recorded_at')}"
+    )
+
+
+def _insert_sqlite(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> list[Any]:
+    return _returning(insert_sqlite_statement(vessel_id, now, fixes))
+
+
+def insert_sqlite_statement(
+    vessel_id: int, now: dt.datetime, fixes: list[FixData], key_id: int | None = None
+) -> tuple[str, list[Any]]:
+    """The SQLite insert of ``fixes`` as (sql, params); with ``key_id``, it carries the key's
+    check (vessels.sql.key_valid_sql) and inserts nothing if the key no longer works."""
+    # The backend's own adapters, straight: the field layer around them cost more per fix
+    # than the insert (profiled). Values are already validated aware-UTC datetimes and dicts.
+    adapt_time, adapt_json = (
+        connection.ops.adapt_datetimefield_value,
+        connection.ops.adapt_json_value,
+    )
+    received = adapt_time(now)
+    params = [
+        value
+        for f in fixes
+        for value in (vessel_id, adapt_time(f.recorded_at), received, f.lat, f.lon,
+                      f.heading_deg, f.speed_mps, f.battery_v, adapt_json(f.readings, None))
+    ]  # fmt: skip
+    values = _sqlite_values(len(fixes))
+    if key_id is None:
+        return _insert_head() + values + _insert_tail(), params
+    # SQLite reads ON CONFLICT after INSERT … SELECT only when the SELECT has a WHERE: it has.
+    checked = f"SELECT * FROM ({values}) WHERE {vessels_sql.key_valid_sql(connection.vendor)}"
+    return _insert_head() + checked + _insert_tail(), [*params, key_id]
+
+
+@functools.lru_cache(maxsize=16)
+def _sqlite_values(rows: int) -> str:
+    row = "(" + ", ".join(["%s"] * len(FIX_COLUMNS)) + ")"
+    return f"VALUES {', '.join([row] * rows)}"
+
+
+_PG_RECORD = "t timestamptz, lat float8, lon float8, h float8, s float8, b float8, r jsonb"
+
+
+def _insert_postgres(vessel_id: int, now: dt.datetime, fixes: list[FixData]) -> list[Any]:
+    return _returning(_insert_postgres_statement(vessel_id, now, fixes))
+
+
+def _returning(statement: tuple[str, list[Any]]) -> list[Any]:
+    with connection.cursor() as cursor:
+        cursor.execute(*statement)
+        return [r[0] for r in cursor.fetchall()]
+
+
+def _insert_postgres_statement(
+    vessel_id: int, now: dt.datetime, fixes: list[FixData], where: str = ""
+) -> tuple[str, list[Any]]:
+    document = json.dumps([
+        {"t": f.recorded_at.isoformat(), "lat": f.lat, "lon": f.lon, "h": f.heading_deg,
+         "s": f.speed_mps, "b": f.battery_v, "r": f.readings}
+        for f in fixes
+    ])  # fmt: skip
+    sql = (
+        _insert_head()
+        + "SELECT %s, u.t, %s, u.lat, u.lon, u.h, u.s, u.b, u.r "
+        + f"FROM jsonb_to_recordset(%s::jsonb) AS u({_PG_RECORD})"
+        + (f" WHERE {where}" if where else "")
+        + _insert_tail()
+    )
+    return sql, [vessel_id, now, document]
+
+
+def insert_with_vessel(
+    vessel_id: int,
+    fixes: list[FixData],
+    now: dt.datetime,
+    *,
+    newest: FixData,
+    summary: dict[str, Any],
+    key_id: int | None = None,
+) -> list[dt.datetime] | None:
+    """Insert the fixes and advance the vessel in ONE statement, outside any transaction
+    (PostgreSQL): the recorded_at of the new ones, or None if the key ``key_id`` no longer
+    works (nothing written). ``newest`` is the batch's newest fix, ``summary`` its last_fix.
+
+    One statement is its own transaction: one round trip where BEGIN, INSERT, UPDATE and
+    COMMIT cost four. The vessel takes ``newest`` only if it was new (the `newest` CTE reads
+    the insert's RETURNING rows); the `dirty` CTE marks the overview's minutes; the `key` CTE
+    checks the key once and every write waits on it (a NULL row: it no longer works).
+    Prepared once per connection: planning was half its time in the database (bench.server).
+    """
+    key_cte, works = "", ""
+    key_params: list[Any] = []
+    if key_id is not None:
+        key_cte = f"key AS (SELECT {vessels_sql.key_valid_sql(connection.vendor)} AS works), "
+        key_params, works = [key_id], "(SELECT works FROM key)"
+    insert_sql, insert_params = _insert_postgres_statement(vessel_id, now, fixes, works)
+    update_sql, update_params = vessels_sql.record_fix_statement(
+        vessel_id=vessel_id,
+        seen_at=now,
+        fix_at=newest.recorded_at,
+        summary=summary,
+        also_if="EXISTS (SELECT 1 FROM newest)",
+        only_if=(works, ()),
+    )
+    sql = (
+        f"WITH {key_cte}inserted AS ({insert_sql}), "
+        "newest AS (SELECT 1 FROM inserted WHERE recorded_at = %s), "
+        f"vessel AS ({update_sql}), "
+        f"{mark_dirty_cte()} "
+        "SELECT recorded_at FROM inserted"
+        + (" UNION ALL SELECT NULL FROM key WHERE NOT works" if key_id is not None else "")
+    )
+    params = [*key_params, *insert_params, newest.recorded_at, *update_params, vessel_id]
+    by_time = {_key(f.recorded_at): f.recorded_at for f in fixes}
+    with connection.cursor() as cursor:
+        execute_prepared(cursor, sql, params)
+        rows = cursor.fetchall()
+    if any(row[0] is None for row in rows):
+        return None
+    return [by_time[_key(row[0])] for row in rows]
+
+
+def insert_sqlite_in_one_transaction(
+    vessel_id: int,
+    fixes: list[FixData],
+    now: dt.datetime,
+    *,
+    newest: FixData,
+    summary: dict[str, Any],
+    key_id: int | None = None,
+) -> tuple[list[FixData], bool]:
+    """Insert the fixes, mark their minutes and advance the vessel (SQLite), in the caller's
+    transaction: the new fixes, and whether marks and vessel were written (not when some were
+    duplicates or the key ``key_id`` no longer works: the caller finishes). Every statement is
+    built first: BEGIN IMMEDIATE takes SQLite's one write lock, which the other workers' posts
+    wait for, so it is held for three library calls, not for the Python that builds them."""
+    insert = insert_sqlite_statement(vessel_id, now, fixes, key_id)
+    mark = mark_dirty_statement(vessel_id, [f.recorded_at for f in fixes])
+    record = vessels_sql.record_fix_statement(
+        vessel_id=vessel_id, seen_at=now, fix_at=newest.recorded_at, summary=summary
+    )
+    by_time = {_key(f.recorded_at): f for f in fixes}
+    with connection.cursor() as cursor:
+        cursor.execute(*insert)
+        new = [by_time[_key(row[0])] for row in cursor.fetchall()]
+        if len(new) != len(fixes):
+            return new, False
+        if mark:
+            cursor.execute(*mark)
+        cursor.execute(*record)
+    return new, True
+
+
+def _key(value: Any) -> dt.datetime:
+    """Naive UTC, from stored text, a naive UTC datetime or an aware one."""
+    if isinstance(value, dt.datetime):
+        if value.tzinfo is None:
+            return value
+        return value.astimezone(dt.UTC).replace(tzinfo=None)
+    text = str(value)
+    return dt.datetime.fromisoformat(text).replace(tzinfo=None)
+
+
+# -- The track overview's writes (telemetry.services: ingest marks, the rebuild replaces) -------
+#
+# Benchmark: bench.maps (ingest with and without the marks, the refresh, the rebuild). Marks
+# go in with the fixes (ON CONFLICT, which the ORM's bulk_create cannot make lock an existing
+# row, see below); the rebuild claims them with DELETE … RETURNING (the ORM's delete() returns
+# a count) and replaces a range's buckets with a plain DELETE and executemany: a month of
+# minutes is ~45,000 rows, and building a model instance per row cost more than the insert.
+
+# PostgreSQL: an existing mark is updated to itself rather than left alone: the update locks the
+# row until the ingest commits, so a refresh that claims (deletes) the mark meanwhile waits, and
+# then reads the new fixes. DO NOTHING takes no lock: a refresh could claim the mark and rebuild
+# before the ingest committed, leaving its fixes out of the overview for good.
+_KEEP_MARK_LOCKED = 'DO UPDATE SET "start" = EXCLUDED."start"'
+# SQLite: DO NOTHING, and the row is not written again. Its writers take the database's one write
+# lock at BEGIN (IMMEDIATE) and keep it to COMMIT, so a refresh cannot claim the mark between
+# this ingest's check and its commit: it runs wholly before (the mark is then new) or after
+# (and reads the new fixes).
+_MARK_CONFLICT = {"postgresql": _KEEP_MARK_LOCKED, "sqlite": "DO NOTHING"}
+
+
+def _minutes_of(times: Sequence[dt.datetime]) -> list[int]:
+    return sorted({bucket_start(t.timestamp(), WIDTHS[0]) for t in times})
+
+
+def mark_dirty(vessel_id: int, times: Sequence[dt.datetime]) -> None:
+    """Mark the minutes of newly stored fixes out of date (same transaction as the fixes)."""
+    statement = mark_dirty_statement(vessel_id, times)
+    if statement is None:
+        return
+    with connection.cursor() as cursor:
+        cursor.execute(*statement)
+
+
+def mark_dirty_statement(
+    vessel_id: int, times: Sequence[dt.datetime]
+) -> tuple[str, list[Any]] | None:
+    """:func:`mark_dirty` as (sql, params); None when there is nothing to mark."""
+    minutes = _minutes_of(times)
+    if not minutes:
+        return None
+    qn = connection.ops.quote_name
+    table = qn(TrackDirty._meta.db_table)
+    rows = ", ".join(["(%s, %s)"] * len(minutes))
+    conflict = _MARK_CONFLICT.get(connection.vendor, _KEEP_MARK_LOCKED)
+    sql = (
+        f"INSERT INTO {table} ({qn('vessel_id')}, {qn('start')}) VALUES {rows}"
+        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) {conflict}"
+    )
+    return sql, [value for m in minutes for value in (vessel_id, m)]
+
+
+def mark_dirty_cte() -> str:
+    """The same marks as mark_dirty, as a CTE over the `inserted` rows (PostgreSQL)."""
+    qn = connection.ops.quote_name
+    table = qn(TrackDirty._meta.db_table)
+    minute = WIDTHS[0]
+    return (
+        f"dirty AS (INSERT INTO {table} ({qn('vessel_id')}, {qn('start')})"
+        f" SELECT DISTINCT %s, (floor(extract(epoch FROM recorded_at) / {minute}) * {minute})"
+        "::bigint FROM inserted"
+        f" ON CONFLICT ({qn('vessel_id')}, {qn('start')}) {_KEEP_MARK_LOCKED})"
+    )
+
+
+def dirty_claim(vessel_id: int, max_span_s: int | None = None) -> list[int]:
+    """Delete the vessel's dirty marks and return their minute starts, sorted; with
+    ``max_span_s``, only the marks within that many seconds of the oldest one. Run it in the
+    transaction that rebuilds them."""
+    qn = connection.ops.quote_name
+    table, vessel, start = qn(TrackDirty._meta.db_table), qn("vessel_id"), qn("start")
+    sql = f"DELETE FROM {table} WHERE {vessel} = %s"
+    params: list[Any] = [vessel_id]
+    if max_span_s is not None:
+        sql += f" AND {start} < (SELECT MIN({start}) FROM {table} WHERE {vessel} = %s) + %s"
+        params += [vessel_id, max_span_s]
+    with connection.cursor() as cursor:
+        cursor.execute(f"{sql} RETURNING {start}", params)
+        return sorted(row[0] for row in cursor.fetchall())
+
+
+def replace_buckets(vessel_id: int, width: int, lo: int, hi: int, summaries: list[Summary]) -> None:
+    """Replace the buckets of ``width`` starting in [lo, hi) with ``summaries``."""
+    b = column_names(TrackBucket)
+    with connection.cursor() as cursor:
+        cursor.execute(
+            f"DELETE FROM {b['table']} WHERE {b['vessel']} = %s AND {b['width']} = %s"
+            f" AND {b['start']} >= %s AND {b['start']} < %s",
+            [vessel_id, width, lo, hi],
+        )
+        if not summaries:
+            return
+        cursor.executemany(
+            f"INSERT INTO {b['table']} ({b['vessel']}, {b['width']}, {b['start']}, {b['count']},"
+            f" {b['points']}, {b['channels']}) VALUES (%s, %s, %s, %s, %s, %s)",
+            [
+                (vessel_id, width, s.start, s.count, json.dumps(
+                    [s.first, s.last, s.north, s.south, s.east, s.west, *(s.gap or (None, None))]
+                ), json.dumps(s.channels))
+                for s in summaries
+            ],
+        )  # fmt: skip

@@ -1,5 +1,5 @@
 """Mission rules and figures: the checks a mission passes before it is sent, and its legs,
-distances and times at a vessel's cruise speed. Pure (stdlib and the contract's geo only).
+distances and times at a vessel's cruise speed. Pure (stdlib and the contract only).
 
 Items are mappings with ``lat``, ``lon`` and optional ``hold_s``, ``radius_m``, ``speed_mps``
 (the shape of the ``mission`` command's items and of ``Mission.as_params()``).
@@ -18,21 +18,21 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from edge_client.contract import catalog
 from edge_client.contract.geo import bearing_deg, distance_m
 
-# Per-item ranges. The command catalog (commands/catalog.py: HOLD_S, RADIUS_M, SPEED_MPS,
-# MISSION_ENDS) takes them from here: vessels sits below commands, so this is their one home.
-# ArduPilot Rover keeps a waypoint's hold in 16 bits and reads it signed (Rover mode_auto.cpp
-# do_nav_wp: a negative delay is none), so 32,767 s is the longest hold a boat can carry out.
-HOLD_MAX_S = 32_767.0
-RADIUS_MIN_M, RADIUS_MAX_M = 0.5, 1000.0
-SPEED_MIN_MPS, SPEED_MAX_MPS = 0.1, 20.0
-ENDS = ("stop", "loop", "return_home")
-# A mission item's fields, in the catalog's order (commands/catalog.py MISSION_ITEM_PARAMS).
-ITEM_FIELDS = ("lat", "lon", "hold_s", "radius_m", "speed_mps")
-# The most items a mission may hold: the catalog sends no more (commands/catalog.py), so a
-# longer one is refused where it is saved or imported rather than stored and never sendable.
-MISSION_MAX_ITEMS = 500
+# Per-item ranges, the ways a mission ends, its fields and its length limit: the contract's
+# (edge_client.contract.catalog), which the command catalog and the boat check against too;
+# named here for the mission code, forms and files of this app.
+LAT_RANGE, LON_RANGE = catalog.RANGES["lat"], catalog.RANGES["lon"]
+HOLD_MAX_S = catalog.HOLD_MAX_S
+RADIUS_MIN_M, RADIUS_MAX_M = catalog.RANGES["radius_m"]
+SPEED_MIN_MPS, SPEED_MAX_MPS = catalog.RANGES["speed_mps"]
+ENDS = catalog.MISSION_ENDS
+ITEM_FIELDS = catalog.MISSION_ITEM_PARAMS
+# The catalog sends no more, so a longer mission is refused where it is saved or imported
+# rather than stored and never sendable.
+MISSION_MAX_ITEMS = catalog.MISSION_MAX_ITEMS
 
 # The default for settings.MISSION_MAX_LEG_M: a leg longer than this is almost always a
 # mistyped coordinate (a sign, a swapped lat/lon), not a plan.
@@ -177,10 +177,9 @@ def item_problems(item: Mapping[str, Any]) -> list[str]:
     planner marks such a row and leaves it off the route rather than draw it anywhere."""
     found = []
     lat, lon = item.get("lat"), item.get("lon")
-    if not _number(lat) or not -90 <= lat <= 90:
-        found.append(f"latitude {lat} is not within -90…90")
-    if not _number(lon) or not -180 <= lon <= 180:
-        found.append(f"longitude {lon} is not within -180…180")
+    for what, value, (lo, hi) in (("latitude", lat, LAT_RANGE), ("longitude", lon, LON_RANGE)):
+        if not _number(value) or not lo <= value <= hi:
+            found.append(f"{what} {value} is not within {lo:g}…{hi:g}")
     hold = item.get("hold_s") or 0
     if not _number(hold) or not 0 <= hold <= HOLD_MAX_S:
         found.append(f"hold {hold} s is not within 0…{HOLD_MAX_S:g} s")

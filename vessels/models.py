@@ -8,6 +8,7 @@ from django.core.validators import MaxValueValidator, MinValueValidator
 from django.db import models
 from django.db.models import Q
 
+from edge_client.contract import fix as fix_shape
 from edge_client.contract.kinds import MAVLINK, WAVE_GLIDER
 from vessels.missions import (
     DEFAULT_CRUISE_SPEED_MPS,
@@ -122,8 +123,11 @@ class MissionEnd(models.TextChoices):
     RETURN_HOME = "return_home", "Return home"
 
 
-_LAT = [MinValueValidator(-90), MaxValueValidator(90)]
-_LON = [MinValueValidator(-180), MaxValueValidator(180)]
+# A position's range is a fix's (the contract's), here as validators and as a check.
+(LAT_MIN, LAT_MAX), (LON_MIN, LON_MAX) = fix_shape.RANGES["lat"], fix_shape.RANGES["lon"]
+_LAT = [MinValueValidator(LAT_MIN), MaxValueValidator(LAT_MAX)]
+_LON = [MinValueValidator(LON_MIN), MaxValueValidator(LON_MAX)]
+IN_RANGE = Q(lat__gte=LAT_MIN, lat__lte=LAT_MAX, lon__gte=LON_MIN, lon__lte=LON_MAX)
 
 
 class Mission(models.Model):
@@ -201,7 +205,7 @@ class MissionItem(models.Model):
         constraints = [
             models.UniqueConstraint(fields=["mission", "seq"], name="missionitem_unique_seq"),
             models.CheckConstraint(
-                condition=Q(lat__gte=-90, lat__lte=90, lon__gte=-180, lon__lte=180),
+                condition=IN_RANGE,
                 name="missionitem_latlon_range",
             ),
         ]

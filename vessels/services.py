@@ -3,17 +3,16 @@
 from __future__ import annotations
 
 import datetime as dt
-import functools
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from django.conf import settings
-from django.db import connection, transaction
+from django.db import transaction
 from django.db.models import F
 from django.utils import timezone
 from django.utils.text import slugify
 
-from vessels import missionfiles, missions
+from vessels import missionfiles, missions, sql
 from vessels.errors import MissionCheckError, MissionFileError
 from vessels.keys import PREFIX_SHOWN, generate_key, hash_key
 from vessels.missionfiles.model import checked_text
@@ -71,23 +70,6 @@ def vessel_key_touch(*, key: VesselKey, now: dt.datetime) -> None:
     key.last_used_at = now
 
 
-@functools.cache
-def _record_fix_sql(vendor: str, also_if: str = "", only_if: str = "") -> str:
-    meta, qn = Vessel._meta, connection.ops.quote_name
-    seen, fix, fix_at = (
-        qn(meta.get_field(n).column) for n in ("last_seen_at", "last_fix", "last_fix_at")
-    )
-    newer = f"({fix_at} IS NULL OR {fix_at} < %s)"
-    if also_if:
-        newer = f"({newer} AND {also_if})"
-    return (
-        f"UPDATE {qn(meta.db_table)} SET {seen} = %s, "
-        f"{fix} = CASE WHEN {newer} THEN %s ELSE {fix} END, "
-        f"{fix_at} = CASE WHEN {newer} THEN %s ELSE {fix_at} END "
-        f"WHERE {qn(meta.pk.column)} = %s" + (f" AND {only_if}" if only_if else "")
-    )
-
-
 def vessel_record_fix(
     *,
     vessel_id: int,
@@ -95,42 +77,12 @@ def vessel_record_fix(
     fix_at: dt.datetime | None = None,
     summary: dict[str, Any] | None = None,
 ) -> None:
-    """Mark the vessel seen at ``seen_at``; make ``summary`` its last fix if it is newer.
-
-    One conditional UPDATE, written once: backlogs arrive oldest first and out of order, so
-    "newer" is decided in the database, under the row lock, not here. The ORM version cost
-    more than the fix insert itself on a single-fix post (profiled).
-    """
+    """Mark the vessel seen at ``seen_at``; make ``summary`` its last fix if it is newer
+    (decided in the database: vessels.sql.record_fix)."""
     if fix_at is None:
         Vessel.objects.filter(pk=vessel_id).update(last_seen_at=seen_at)
         return
-    sql, params = vessel_record_fix_statement(
-        vessel_id=vessel_id, seen_at=seen_at, fix_at=fix_at, summary=summary
-    )
-    with connection.cursor() as cursor:
-        cursor.execute(sql, params)
-
-
-def vessel_record_fix_statement(
-    *,
-    vessel_id: int,
-    seen_at: dt.datetime,
-    fix_at: dt.datetime,
-    summary: dict[str, Any],
-    also_if: str = "",
-    only_if: tuple[str, Sequence[Any]] = ("", ()),
-) -> tuple[str, list[Any]]:
-    """:func:`vessel_record_fix` as (sql, params), for a caller that runs it as part of one
-    statement of its own (ingest on PostgreSQL: fixes and vessel in one round trip).
-    ``also_if``, a parameterless SQL condition, must hold too for the fix to be taken;
-    ``only_if`` (SQL and its parameters), for the row to be written at all."""
-    # The backend's adapters, straight (both fields are plain: no encoder, aware UTC times):
-    # the field layer around them cost a tenth of a single-fix post (profiled, bench.server).
-    ops = connection.ops
-    at = ops.adapt_datetimefield_value(fix_at)
-    summary_value = ops.adapt_json_value(summary, None)
-    params = [ops.adapt_datetimefield_value(seen_at), at, summary_value, at, at, vessel_id]
-    return _record_fix_sql(connection.vendor, also_if, only_if[0]), [*params, *only_if[1]]
+    sql.record_fix(vessel_id=vessel_id, seen_at=seen_at, fix_at=fix_at, summary=summary)
 
 
 def vessel_bump_commands_version(*, vessel_id: int) -> None:

@@ -17,7 +17,7 @@ from rest_framework.exceptions import ParseError, ValidationError
 from rest_framework.request import Request
 from rest_framework.response import Response
 
-from commands.lifecycle import Status
+from commands.lifecycle import ACK_STATUSES, Status
 from commands.models import Command, Source
 from commands.services import command_ack, command_claim_open, command_reports_record
 from vessels.api.boat import AwareDateTimeField, BoatView, batch_answer_schema
@@ -94,7 +94,7 @@ class AckView(BoatView):
         request=inline_serializer(
             "Ack",
             {
-                "status": serializers.ChoiceField(["acknowledged", "done", "failed", "superseded"]),
+                "status": serializers.ChoiceField([str(s) for s in ACK_STATUSES]),
                 # A NUL is refused (the one text rule), so the schema says so: StrictCharField.
                 "detail": StrictCharField(required=False, allow_blank=True),
             },

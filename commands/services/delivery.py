@@ -98,9 +98,8 @@ def command_ack(
     except ValueError:
         reported = None
     if reported not in ACK_STATUSES:
-        raise CommandError(
-            "status must be acknowledged, done, failed or superseded", field="status"
-        )
+        *first, last = ACK_STATUSES
+        raise CommandError(f"status must be {', '.join(first)} or {last}", field="status")
     command = _get_for_vessel(vessel, uid)
     for _attempt in range(3):
         current = Status(command.status)

@@ -12,6 +12,11 @@ def doubled(delay: float, *, cap: float = math.inf) -> float:
     return min(delay * 2, cap)
 
 
+# Enough doublings to reach any cap from any first wait a caller uses (2**64 ≈ 1.8e19), where
+# the waits must go on doubling until the cap; the float cannot overflow.
+UNTIL_THE_CAP = 64
+
+
 def after_failures(first: float, failures: int, *, cap: float, max_doublings: int = 6) -> float:
     """The wait after ``failures`` failures in a row: ``first`` doubled per failure (at most
     ``max_doublings`` times, so a long outage cannot overflow the float), at most ``cap``."""

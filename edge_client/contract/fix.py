@@ -26,5 +26,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "speed_mps": (0, 1000),
     "battery_v": (0, 1000),
 }
+# The number fields, in FIELDS' order (the exports' columns between time and readings).
+NUMBERS: tuple[str, ...] = tuple(name for name in FIELDS if name in RANGES)
 MAX_READINGS = 64  # name: number pairs in one fix's readings
 MAX_READING_NAME = 50  # characters

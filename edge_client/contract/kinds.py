@@ -23,6 +23,11 @@ ROVER_MODES: dict[str, int] = {
     "SMART_RTL": 12,
     "GUIDED": 15,
 }
+# Modes whose Mode::requires_position() is true in Rover (mode.h): Rover refuses them until its
+# EKF has a position. The boat waits for one before asking; the simulator refuses as Rover does.
+ROVER_POSITION_MODES = frozenset(
+    {"AUTO", "GUIDED", "LOITER", "FOLLOW", "CIRCLE", "DOCK", "RTL", "SMART_RTL"}
+)
 # The mode Rover reports while it boots (mode.h `INITIALISING = 16`): never asked for, so not
 # in ROVER_MODES, but a fix sent during start-up carries it and the pages name it.
 ROVER_MODE_INITIALISING = 16

@@ -1,13 +1,16 @@
-"""The MAV_CMD numbers (MAVLink common.xml) a Shoreside mission is built from and read back.
+"""The MAV_CMD numbers (MAVLink common.xml) a Shoreside mission is built from and read back,
+and the names MAVLink gives any number of its enums (for messages: "MAV_CMD_NAV_LAND").
 
-Spelled here rather than taken from pymavlink at import time so that this package stays pure
-(the server's mission-file code and the boat's mission machine import it without loading
-pymavlink's 1 MB dialect); ``tests/edge_client/test_contract.py`` pins every number to
-pymavlink's own ``MAV_CMD`` enum, so they cannot drift from it.
+The numbers are spelled here rather than taken from pymavlink at import time so that this
+package stays pure (the server's mission-file code and the boat's mission machine import it
+without loading pymavlink's 1 MB dialect); ``tests/edge_client/test_contract.py`` pins every
+number to pymavlink's own ``MAV_CMD`` enum, so they cannot drift from it. The names are
+pymavlink's, read on first use (:func:`name`): no table of them is kept here.
 """
 
 from __future__ import annotations
 
+import functools
 from enum import IntEnum
 
 
@@ -17,3 +20,22 @@ class MavCmd(IntEnum):
     NAV_RETURN_TO_LAUNCH = 20
     DO_JUMP = 177
     DO_CHANGE_SPEED = 178
+
+
+def name(enum: str, value: int) -> str | None:
+    """MAVLink's name for ``value`` in ``enum`` (``MAV_CMD``, ``MAV_FRAME``,
+    ``MAV_MISSION_RESULT``…), as pymavlink's ArduPilot dialect (common.xml and ArduPilot's own)
+    spells it; None for a number it does not know."""
+    return _names(enum).get(value)
+
+
+@functools.cache
+def _names(enum: str) -> dict[int, str]:
+    # Guarded: both the boat's extra and the server's install pymavlink, but this package must
+    # import without it (a tool that needs only the tables); then every number is unnamed.
+    try:
+        import pymavlink.dialects.v20.ardupilotmega as ardupilotmega
+    except ImportError:
+        return {}
+    entries = ardupilotmega.enums.get(enum, {})
+    return {n: e.name for n, e in entries.items() if not e.name.endswith("_ENUM_END")}

@@ -15,6 +15,8 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil  # noqa: E402
 
+from edge_client.contract.catalog import MISSION_MAX_MAVLINK_ITEMS  # noqa: E402
+
 mavlink = mavutil.mavlink
 
 UPLOAD_RETRY_S = 0.5
@@ -26,7 +28,8 @@ NAV_RTL, DO_JUMP = mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, mavlink.MAV_CMD_DO_JUMP
 DO_CHANGE_SPEED = mavlink.MAV_CMD_DO_CHANGE_SPEED
 NAV_COMMANDS = {NAV_WAYPOINT, NAV_LOITER_TIME, NAV_RTL}  # the ones this Rover drives to
 LOCATION_COMMANDS = {NAV_WAYPOINT, NAV_LOITER_TIME}  # AP_Mission keeps their x, y, z
-MAX_MISSION_ITEMS = 724  # AP_Mission on a 16 KiB storage board, as commands/catalog.py says
+# AP_Mission on a 16 KiB storage board: the capacity the server's catalog assumes.
+MAX_MISSION_ITEMS = MISSION_MAX_MAVLINK_ITEMS
 FIRST_ITEM = 1  # AP_MISSION_FIRST_REAL_COMMAND: item 0 is home, never run
 MAX_JUMPS_FOLLOWED = 64  # AP_Mission::get_next_cmd gives up after this many DO_JUMPs in a row
 SPEED_MIN_MPS = 0.05  # AR_WPNAV_SPEED_MIN: DO_CHANGE_SPEED below this changes nothing

@@ -67,7 +67,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
 from edge_client.contract.geo import bearing_deg, distance_m, offset  # noqa: E402 (pure)
-from edge_client.contract.kinds import ROVER_MODE_NAMES  # noqa: E402 (pure)
+from edge_client.contract.kinds import ROVER_MODE_NAMES, ROVER_POSITION_MODES  # noqa: E402 (pure)
 from edge_client.sim.clock import ScaledClock, SimClock  # noqa: E402
 from edge_client.sim.mission import (  # noqa: E402 (after MAVLINK20 is chosen)
     FIRST_ITEM,
@@ -86,8 +86,7 @@ MODES = {name: number for number, name in MODE_NAMES.items()}
 DEFAULT_WP_RADIUS_M = 2.0  # ArduPilot Rover WP_RADIUS default
 # MISSION_CURRENT.mission_state (common.xml MISSION_STATE)
 NO_MISSION, NOT_STARTED, ACTIVE, COMPLETE = 1, 2, 3, 5
-# Modes whose Mode::requires_position() is true in Rover (mode.h).
-POSITION_MODES = {"AUTO", "GUIDED", "LOITER", "FOLLOW", "RTL", "SMART_RTL"}
+POSITION_MODES = ROVER_POSITION_MODES  # refused (and left for HOLD) without a position
 # EKF_STATUS_REPORT flags (ardupilotmega.xml EKF_STATUS_FLAGS) before and after the EKF has a
 # horizontal position; SYS_STATUS sensor bits (common.xml MAV_SYS_STATUS_SENSOR).
 EKF_STARTING = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_CONST_POS_MODE

@@ -39,6 +39,7 @@ import serial
 from django.db import DatabaseError, close_old_connections, connection
 
 from edge_client import systemd
+from edge_client.contract.backoff import UNTIL_THE_CAP, after_failures
 from sms import selectors
 from sms.level2.codec import Frame
 from sms.level2.payload import (
@@ -106,7 +107,8 @@ class StepHealth:
 def housekeeping_retry_s(tick_s: float, failures: int) -> float:
     """How long a step that failed ``failures`` times in a row is left alone: the next tick
     after one failure, then doubling up to HOUSEKEEPING_RETRY_MAX_S."""
-    return min(tick_s * 2 ** (failures - 1), max(tick_s, HOUSEKEEPING_RETRY_MAX_S))
+    cap = max(tick_s, HOUSEKEEPING_RETRY_MAX_S)
+    return after_failures(tick_s, failures - 1, cap=cap, max_doublings=UNTIL_THE_CAP)
 
 
 @dataclass(frozen=True)

@@ -56,6 +56,7 @@ from commands.lifecycle import FINAL, Status
 from commands.models import Command, Source
 from commands.services import command_enqueue, command_withdraw_queued
 from edge_client.client import COMMANDS_PATH, TELEMETRY_PATH, post_ack
+from edge_client.contract.backoff import after_failures
 from edge_client.outbox import Outbox, settle_fix_batch
 from edge_client.transports.base import Transport, TransportError
 from edge_client.transports.http import HttpTransport
@@ -219,7 +220,9 @@ class ShoreLink:
 
     def _link_failed(self, exc: TransportError) -> None:
         self.state.failures += 1
-        wait = min(self.config.max_backoff_s, 2.0 ** min(self.state.failures, 16))
+        wait = after_failures(
+            1.0, self.state.failures, cap=self.config.max_backoff_s, max_doublings=16
+        )
         self.state.down_until = self.clock() + wait
         self.state.last_error = str(exc)
         if self.state.reachable is not False:

@@ -32,6 +32,7 @@ from collections.abc import Callable, Mapping
 from django.db import DatabaseError, close_old_connections, connection
 from django.utils import timezone
 
+from edge_client.contract.backoff import UNTIL_THE_CAP, after_failures
 from sms.level2.inner import InnerCommandTable
 from sms.models import Outcome, SmsMessage
 from sms.modem import Modem, ModemError, PinRequired, ReceivedSms, SendUnconfirmed, receive_all
@@ -218,7 +219,9 @@ class SmsLink:
                 self._forget(message.pk)
                 self.failed += 1
                 return
-            wait = min(self.retry_base_s * 2 ** (attempts - 1), self.retry_max_s)
+            wait = after_failures(
+                self.retry_base_s, attempts - 1, cap=self.retry_max_s, max_doublings=UNTIL_THE_CAP
+            )
             log.warning("SMS to %s not sent (%s); again in %.0f s", message.number, exc, wait)
             self._attempts[message.pk] = attempts
             self._retry_at[message.pk] = self.clock() + wait

@@ -17,6 +17,7 @@ from xml.sax.saxutils import escape
 
 from django.http import StreamingHttpResponse
 
+from edge_client.contract import fix as fix_shape
 from telemetry import sql
 
 FORMATS = {
@@ -24,8 +25,9 @@ FORMATS = {
     "geojson": "application/geo+json",
     "gpx": "application/gpx+xml",
 }
-# The fix's shape in every export (the names of the fix JSON: `time`, not `recorded_at`).
-COLUMNS = ("time", *sql.EXPORT_NUMBERS, "readings")
+# The fix's shape in every export: the boat API's (edge_client.contract.fix), so `time`, not
+# `recorded_at`.
+COLUMNS = fix_shape.FIELDS
 CSV_HEADER = ",".join(COLUMNS) + "\r\n"
 GPX_NS = "http://www.topografix.com/GPX/1/1"
 # Our own GPX extension namespace for speed and battery (GPX 1.1 has no field for either).

@@ -13,6 +13,7 @@ from rest_framework.generics import ListAPIView
 from rest_framework.pagination import CursorPagination
 from rest_framework.request import Request
 
+from edge_client.contract import fix as fix_shape
 from telemetry.api import export
 from telemetry.models import Fix
 from telemetry.parsing import parse_time
@@ -26,16 +27,8 @@ class FixSerializer(serializers.ModelSerializer):
 
     class Meta:
         model = Fix
-        fields = [
-            "time",
-            "received_at",
-            "lat",
-            "lon",
-            "heading_deg",
-            "speed_mps",
-            "battery_v",
-            "readings",
-        ]
+        # The fix as the boat posted it (edge_client.contract.fix), received_at after its time.
+        fields = [fix_shape.FIELDS[0], "received_at", *fix_shape.FIELDS[1:]]
 
 
 class FixCursor(CursorPagination):

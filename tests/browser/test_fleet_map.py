@@ -5,6 +5,7 @@ and a move_to carried out by the real edge client driving the Rover simulator.""
 from __future__ import annotations
 
 import datetime as dt
+import random
 from pathlib import Path
 
 import pytest
@@ -15,7 +16,7 @@ from selenium.webdriver.common.by import By
 
 from commands.models import Command
 from commands.services import command_enqueue
-from edge_client.contract.geo import bearing_deg, distance_m
+from edge_client.contract.geo import bearing_deg, distance_m, offset
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
 from tests.browser.support import js, log_in, shot, wait_for
@@ -159,26 +160,57 @@ def test_an_operator_without_the_add_command_permission_sees_no_command_buttons(
     assert status == 403 and Command.objects.count() == 0
 
 
+def geo_pairs() -> list[tuple[float, float, float, float]]:
+    """Pairs of points to measure: known places, the awkward ones (the same point, the poles,
+    the antimeridian, antipodes), pairs anywhere and pairs a map click apart (under 10 km)."""
+    rng = random.Random(17)
+    pairs = [
+        (-31.9790, 115.8170, -31.9800, 115.8200),  # across Matilda Bay
+        (-32.0560, 115.7400, -32.0380, 115.3325),  # Fremantle to the glider's area
+        (51.4778, -0.0015, 40.7486, -73.9864),  # Greenwich to New York
+        (0.0, 179.9, 0.0, -179.9),  # across the antimeridian
+        (-32.0, 115.0, -32.0, 115.0),  # the same point
+        (90.0, 0.0, -90.0, 0.0),  # pole to pole
+        (10.0, 20.0, -10.0, -160.0),  # antipodes
+        (89.9, 45.0, 89.9, -135.0),  # over the pole
+    ]
+    for _ in range(300):
+        pairs.append(
+            (
+                rng.uniform(-90, 90),
+                rng.uniform(-180, 180),
+                rng.uniform(-90, 90),
+                rng.uniform(-180, 180),
+            )
+        )
+    for _ in range(200):
+        lat, lon = rng.uniform(-80, 80), rng.uniform(-180, 180)
+        pairs.append((lat, lon, *offset(lat, lon, rng.uniform(0, 360), rng.uniform(0.5, 10_000))))
+    return pairs
+
+
 def test_the_map_measures_distance_and_bearing_as_the_server_does(
     browser, live_server, operator_user
 ) -> None:
+    """mapkit.js keeps the one JavaScript copy of edge_client.contract.geo (a page cannot import
+    Python): it must give the contract's figures, to rounding, on every kind of pair."""
     log_in(browser, live_server, operator_user)
     wait_for(browser, lambda b: js(b, "return !!(window.Shoreside && window.Shoreside.geo)"))
-    for a, b in [
-        ((-31.9790, 115.8170), (-31.9800, 115.8200)),  # across Matilda Bay
-        ((-32.0560, 115.7400), (-32.0380, 115.3325)),  # Fremantle to the glider's area
-        ((51.4778, -0.0015), (40.7486, -73.9864)),  # Greenwich to New York
-        ((0.0, 179.9), (0.0, -179.9)),  # across the antimeridian
-    ]:
-        got = js(
-            browser,
-            "var g = window.Shoreside.geo; var a = arguments;"
-            "return [g.distance(a[0], a[1], a[2], a[3]), g.bearing(a[0], a[1], a[2], a[3])]",
-            *a,
-            *b,
-        )
-        assert got[0] == pytest.approx(distance_m(*a, *b), rel=1e-9)
-        assert got[1] == pytest.approx(bearing_deg(*a, *b), abs=1e-9)
+    pairs = geo_pairs()
+    got = js(
+        browser,
+        "var g = window.Shoreside.geo;"
+        "return arguments[0].map(function (p) {"
+        " return [g.distance(p[0], p[1], p[2], p[3]), g.bearing(p[0], p[1], p[2], p[3])]; })",
+        pairs,
+    )
+    assert len(got) == len(pairs) > 500
+    for (metres, bearing), pair in zip(got, pairs, strict=True):
+        assert metres == pytest.approx(distance_m(*pair), rel=1e-9, abs=1e-6), pair
+        # Degrees apart on the circle (359.9999… and 0 are neighbours), to a micro-degree.
+        apart = (bearing - bearing_deg(*pair) + 180) % 360 - 180
+        assert abs(apart) < 1e-6, pair
+        assert 0 <= bearing < 360, pair
     # A known geodesic value: Greenwich to New York is 5,570 km on the mean sphere.
     assert distance_m(51.4778, -0.0015, 40.7486, -73.9864) == pytest.approx(5_570_000, rel=2e-3)
 

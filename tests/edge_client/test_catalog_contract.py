@@ -1,18 +1,22 @@
-"""The edge client's copy of the command rules is the server's catalog, value for value.
+"""The server's catalog is built from the contract's command tables, which the boat checks by.
 
-The boat cannot import the catalog (it never imports the server's code), so it keeps a copy in
-``edge_client/catalog.py``. Both modules are pure, so this needs no Django: a change on either
-side that the other lacks fails here, before a boat refuses a command the server accepted.
+``edge_client.contract.catalog`` holds the MAVLink kinds, their parameter names, the ranges and
+the limits once; ``commands/catalog.py`` takes them from there and the boat validates with them
+(``edge_client/commands.py``). These tests hold the server to the contract's objects and the
+boat to refusing just outside them, so the boat never refuses a command the server accepted.
 """
 
 from __future__ import annotations
+
+import ast
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from commands import catalog
-from edge_client import catalog as edge
+from edge_client.contract import catalog as contract
 from edge_client.contract.kinds import ROVER_MODES
 from edge_client.executor import CommandError, validate
 from edge_client.mission import (
@@ -26,6 +30,7 @@ from edge_client.sim.rover import MAX_MISSION_ITEMS as SIM_MAX_MISSION_ITEMS
 from edge_client.sim.rover import MODES as SIM_MODES
 from edge_client.vehicle import MODE_NAMES
 
+ROOT = Path(__file__).resolve().parents[2]
 MAVLINK_KINDS = catalog.kinds_for(catalog.MAVLINK)
 MISSION_ITEM_PARAMS = catalog.MISSION_ITEM_PARAMS
 
@@ -38,30 +43,69 @@ def ranged(params: tuple[catalog.Param, ...]) -> dict[str, tuple[float | None, f
     }
 
 
-def test_the_boat_runs_exactly_the_catalogs_mavlink_kinds_with_the_same_parameters() -> None:
-    assert edge.KIND_PARAMS == {k.name: tuple(p.name for p in k.params) for k in MAVLINK_KINDS}
-    assert edge.MISSION_ITEM_PARAMS == tuple(p.name for p in MISSION_ITEM_PARAMS)
+def test_the_servers_mavlink_kinds_are_the_contracts_with_its_parameters() -> None:
+    assert {k.name: tuple(p.name for p in k.params) for k in MAVLINK_KINDS} == (
+        contract.KIND_PARAMS
+    )
+    assert tuple(p.name for p in MISSION_ITEM_PARAMS) == contract.MISSION_ITEM_PARAMS
 
 
-def test_navigation_kinds_are_the_catalogs() -> None:
-    assert edge.NAVIGATION_KINDS == {k.name for k in MAVLINK_KINDS if k.navigation}
+def test_navigation_kinds_are_the_contracts() -> None:
+    assert {k.name for k in MAVLINK_KINDS if k.navigation} == contract.NAVIGATION_KINDS
 
 
-def test_every_range_is_the_catalogs() -> None:
+def test_every_range_of_the_server_is_the_contracts() -> None:
     server: dict[str, tuple[float | None, float | None]] = {}
     for params in [*(kind.params for kind in MAVLINK_KINDS), MISSION_ITEM_PARAMS]:
         for name, bounds in ranged(params).items():
-            # The edge copy keys ranges by parameter name: one name, one range everywhere.
+            # The contract keys ranges by parameter name: one name, one range everywhere.
             assert server.setdefault(name, bounds) == bounds, name
-    assert edge.RANGES == server
+    assert server == contract.RANGES
 
 
-def test_the_mission_length_limit_is_the_catalogs() -> None:
-    assert edge.MISSION_MAX_ITEMS == catalog.MISSION_MAX_ITEMS
+def test_the_servers_ends_and_limits_are_the_contracts_objects() -> None:
+    assert catalog.MISSION_ENDS is contract.MISSION_ENDS
+    assert catalog.KINDS["mission"].param("end").choices is contract.MISSION_ENDS
+    assert catalog.MISSION_MAX_ITEMS == contract.MISSION_MAX_ITEMS
+    assert catalog.MISSION_MAX_MAVLINK_ITEMS == contract.MISSION_MAX_MAVLINK_ITEMS
+
+
+def test_a_kind_whose_parameters_differ_from_the_contracts_is_refused_at_import() -> None:
+    with pytest.raises(ValueError, match="contract's parameters"):
+        catalog._boat_kind("move_to", "Move to a point", catalog.LAT)
+
+
+# The contract's distinctive numbers (a position's limits, the longest hold, the mission
+# limits): spelling one again in these modules is the copy the contract replaced. (0.5, 1000
+# and the like are left out: they also round times and format distances.)
+CONTRACT_NUMBERS = {90, 180, 32767, 500, 724}
+READ_FROM_THE_CONTRACT = [
+    "commands/catalog.py",
+    "vessels/missions.py",
+    "edge_client/commands.py",
+    "edge_client/sim/mission.py",
+    "edge_client/mission.py",
+    "vessels/models.py",
+    "vessels/missionfiles/model.py",
+    "telemetry/models.py",
+    "telemetry/parsing.py",
+    "sms/language.py",
+]
+
+
+@pytest.mark.parametrize("module", READ_FROM_THE_CONTRACT)
+def test_no_module_spells_the_contracts_numbers_again(module: str) -> None:
+    tree = ast.parse((ROOT / module).read_text())
+    numbers = {
+        node.value
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant) and type(node.value) in (int, float)
+    }
+    assert numbers & CONTRACT_NUMBERS == set()
 
 
 def test_the_simulated_rover_holds_as_many_mission_items_as_the_catalog_allows_for() -> None:
-    assert SIM_MAX_MISSION_ITEMS == catalog.MISSION_MAX_MAVLINK_ITEMS
+    assert SIM_MAX_MISSION_ITEMS == contract.MISSION_MAX_MAVLINK_ITEMS
 
 
 def test_rover_modes_are_the_catalogs_by_name_and_number() -> None:
@@ -75,9 +119,9 @@ def test_the_simulated_rover_knows_every_catalog_mode_by_the_same_number() -> No
     assert SIM_MODES == ROVER_MODES | {"INITIALISING": 16}
 
 
-@pytest.mark.parametrize("name", sorted(edge.RANGES))
+@pytest.mark.parametrize("name", sorted(contract.RANGES))
 def test_the_boat_refuses_just_outside_each_catalog_range_and_takes_its_ends(name: str) -> None:
-    lo, hi = edge.RANGES[name]
+    lo, hi = contract.RANGES[name]
 
     def check(value: float) -> dict:
         if name in ("lat", "lon"):
@@ -110,11 +154,6 @@ def test_every_catalog_mode_is_accepted_by_the_boat(mode: str) -> None:
 def test_the_boot_time_mode_cannot_be_asked_for() -> None:
     with pytest.raises(CommandError, match="unknown Rover mode"):
         validate("set_mode", {"mode": "INITIALISING"})
-
-
-def test_the_ways_a_mission_may_end_are_the_catalogs() -> None:
-    assert edge.MISSION_ENDS == catalog.MISSION_ENDS
-    assert catalog.KINDS["mission"].param("end").choices == edge.MISSION_ENDS
 
 
 MISSION_ITEMS = st.lists(

@@ -37,9 +37,9 @@ pytestmark = [pytest.mark.django_db(transaction=True), pytest.mark.slow]
 
 HOME = (-31.9800, 115.8200)
 PERIOD = "0.3"
-# The mission tests wait on the boat driving and holding: their simulator's clock runs this
-# many times as fast. Holds are long enough on it that the client, sampling every PERIOD of
-# real time, still takes two or more fixes at each waypoint.
+# The tests that wait on the boat booting, driving and holding run their simulator's clock
+# this many times as fast (the client keeps real time). Holds are long enough on it that the
+# client, sampling every PERIOD of real time, still takes two or more fixes at each waypoint.
 FAST = "4"
 HOLD_S = 2.5  # Rover keeps 3 whole seconds: 0.75 s of real time at 4x
 
@@ -113,7 +113,7 @@ def command_status(command: Command) -> str:
 
 def test_move_to_end_to_end(live_server, boat, rig):
     vessel, key = boat
-    rig.sim()
+    rig.sim("--time-scale", FAST)
     rig.client(live_server.url, key)
     wait_until(lambda: Fix.objects.filter(vessel=vessel).exists(), 20, "a first fix")
     vessel.refresh_from_db()  # its last fix: a move_to is measured from it (MOVE_TO_MAX_M)
@@ -143,10 +143,15 @@ def test_a_command_waiting_when_the_boat_boots_is_carried_out(live_server, boat,
         params={"lat": target[0], "lon": target[1]},
         created_by="test",
     )
-    rig.sim("--position-delay", "5")  # the last flag wins over the rig's 1 s
+    # The Pi boots quicker than the autopilot: the client has the command before the autopilot
+    # is even heard, and the autopilot takes 16 s of its clock (4 s of ours; the last flag wins
+    # over the rig's 1 s) to get a position, some 2.5 s after it is first heard.
     rig.client(live_server.url, key)
+    wait_until(lambda: command_status(command) != "queued", 20, "the boat to take the command")
+    rig.sim("--position-delay", "16", "--time-scale", FAST)
     wait_until(lambda: command_status(command) in ("done", "failed"), 40, "move_to to finish")
     assert command.status == "done", (command.result_detail, rig.log()[-3000:])
+    assert "waiting for a position estimate" in rig.log()  # it was refused and waited
 
 
 FIVE = [

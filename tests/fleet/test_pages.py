@@ -66,7 +66,11 @@ def test_each_map_action_takes_its_input_the_way_its_catalog_params_ask() -> Non
         "label": "Fixed heading",
         "input": "bearing",
         "param": "bearing",
+        "min": 0,
+        "max": 359,
     }
+    script = (Path(__file__).resolve().parents[2] / "fleet/static/fleet/fleet_map.js").read_text()
+    assert "359" not in script  # the typed heading's range comes with the action
     assert by_kind["light"]["input"] == "choice" and by_kind["light"]["choices"] == ["on", "off"]
     assert by_kind["hold"]["input"] == "none"
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from telemetry import services
+from telemetry import sql
 from telemetry.models import Fix
 from telemetry.services import fix_ingest
 from vessels.models import Vessel
@@ -128,7 +128,7 @@ def test_a_batch_of_duplicates_does_not_move_the_last_fix(vessel_a: Vessel) -> N
 
 
 def test_a_batch_over_one_insert_chunk_is_stored_whole(vessel_a: Vessel) -> None:
-    size = services.INSERT_CHUNK * 2 + 500
+    size = sql.INSERT_CHUNK * 2 + 500
     batch = [rec(i) for i in range(size)]
     result = fix_ingest(vessel=vessel_a, records=batch, now=NOW)
     assert result.as_dict() == {"accepted": size, "duplicates": 0, "rejected": []}

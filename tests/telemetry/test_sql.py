@@ -1,5 +1,6 @@
-"""telemetry.sql's export statements on whichever database the suite runs on (SQLite, and
-PostgreSQL with DATABASE_URL): the range they select and the text the database writes."""
+"""telemetry.sql's statements on whichever database the suite runs on (SQLite, and PostgreSQL
+with DATABASE_URL): the range the exports select and the text the database writes, the
+overview's reads, and the ingest's and the overview's writes."""
 
 from __future__ import annotations
 
@@ -7,8 +8,14 @@ import csv
 import datetime as dt
 import json
 
+import pytest
+from django.db import connection
+from django.test.utils import CaptureQueriesContext
+
 from telemetry import sql
 from telemetry.models import Fix, TrackBucket, TrackDirty
+from telemetry.overview import Summary
+from telemetry.parsing import FixData
 from tests.support import BASE
 from vessels.models import Vessel
 
@@ -117,3 +124,97 @@ def test_dirty_minutes_are_those_touching_the_range(vessel_a: Vessel, vessel_b: 
     # The minute before ends where the range starts; the one at its end starts after it.
     assert sql.dirty_minutes(vessel_a.pk, start, start + 120) == [start, start + 60]
     assert sql.dirty_minutes(vessel_a.pk, start + 30, start + 90) == [start, start + 60]
+
+
+# -- The ingest's and the overview's writes -------------------------------------------------
+
+
+def fix_data(seconds: float, **fields: object) -> FixData:
+    return FixData(
+        recorded_at=BASE + dt.timedelta(seconds=seconds), lat=-31.5, lon=115.25, **fields
+    )  # type: ignore[arg-type]
+
+
+def test_insert_new_stores_each_fix_once_and_names_only_the_new_ones(vessel_a: Vessel) -> None:
+    first = [fix_data(0, battery_v=12.5, readings={"t": 1.0}), fix_data(10)]
+    assert sql.insert_new(vessel_a.pk, first, BASE) == [f.recorded_at for f in first]
+    again = [fix_data(10), fix_data(20, heading_deg=90.0)]
+    assert sql.insert_new(vessel_a.pk, again, BASE) == [again[1].recorded_at]
+    stored = Fix.objects.filter(vessel=vessel_a).order_by("recorded_at")
+    assert [(f.battery_v, f.heading_deg, f.readings) for f in stored] == [
+        (12.5, None, {"t": 1.0}),
+        (None, None, {}),
+        (None, 90.0, {}),
+    ]
+    assert {f.received_at for f in stored} == {BASE}
+
+
+def test_insert_new_goes_past_one_statements_chunk(vessel_a: Vessel) -> None:
+    fixes = [fix_data(n) for n in range(sql.INSERT_CHUNK + 3)]
+    assert len(sql.insert_new(vessel_a.pk, fixes, BASE)) == len(fixes)
+    assert Fix.objects.filter(vessel=vessel_a).count() == len(fixes)
+
+
+def test_marks_are_the_minutes_of_the_times_once_each(vessel_a: Vessel) -> None:
+    start = int(BASE.timestamp())
+    times = [BASE + dt.timedelta(seconds=s) for s in (0, 30, 59, 60, 185)]
+    sql.mark_dirty(vessel_a.pk, times)
+    sql.mark_dirty(vessel_a.pk, times[:2])  # marked again: still one mark
+    sql.mark_dirty(vessel_a.pk, [])
+    marks = sorted(TrackDirty.objects.filter(vessel=vessel_a).values_list("start", flat=True))
+    assert marks == [start, start + 60, start + 180]
+
+
+def test_a_claim_takes_the_marks_or_those_near_the_oldest(
+    vessel_a: Vessel, vessel_b: Vessel
+) -> None:
+    start = int(BASE.timestamp())
+    for minute in (0, 1, 5, 60):
+        TrackDirty.objects.create(vessel=vessel_a, start=start + 60 * minute)
+    TrackDirty.objects.create(vessel=vessel_b, start=start)
+    assert sql.dirty_claim(vessel_a.pk, max_span_s=301) == [start, start + 60, start + 300]
+    assert sql.dirty_claim(vessel_a.pk) == [start + 3600]
+    assert sql.dirty_claim(vessel_a.pk) == []
+    assert TrackDirty.objects.filter(vessel=vessel_b).count() == 1
+
+
+def test_replace_buckets_replaces_only_that_width_and_range(vessel_a: Vessel) -> None:
+    start = int(BASE.timestamp())
+    point = (start + 1.0, -31.5, 115.25)
+    for width, at in ((60, start), (60, start + 60), (60, start + 120), (600, start)):
+        TrackBucket.objects.create(
+            vessel=vessel_a, width=width, start=at, count=1, points=[None] * 8, channels={}
+        )
+    new = Summary(start + 60, 3, point, point, point, point, point, point, None, {"": [1, 2, 3, 3]})
+    sql.replace_buckets(vessel_a.pk, 60, start, start + 120, [new])
+    kept = TrackBucket.objects.filter(vessel=vessel_a).order_by("width", "start")
+    assert [(b.width, b.start, b.count) for b in kept] == [
+        (60, start + 60, 3),
+        (60, start + 120, 1),
+        (600, start, 1),
+    ]
+    [read] = sql.buckets(vessel_a.pk, 60, start + 60, start + 61)
+    assert read == new
+    sql.replace_buckets(vessel_a.pk, 600, start, start + 600, [])  # nothing left in the range
+    assert not TrackBucket.objects.filter(vessel=vessel_a, width=600).exists()
+
+
+@pytest.mark.postgres
+def test_the_one_statement_post_inserts_marks_and_advances_the_vessel(vessel_a: Vessel) -> None:
+    if connection.vendor != "postgresql":
+        pytest.skip("one statement with data-modifying CTEs: PostgreSQL only")
+    fixes = [fix_data(0), fix_data(90)]
+    with CaptureQueriesContext(connection) as queries:
+        new = sql.insert_with_vessel(
+            vessel_a.pk, fixes, BASE, newest=fixes[1], summary={"time": "newest"}
+        )
+    assert len(queries) == 1 and new == [f.recorded_at for f in fixes]
+    vessel_a.refresh_from_db()
+    assert vessel_a.last_fix == {"time": "newest"} and vessel_a.last_seen_at == BASE
+    start = int(BASE.timestamp())
+    assert sorted(TrackDirty.objects.values_list("start", flat=True)) == [start, start + 60]
+    # The same newest fix again is no news: seen moves, the last fix stays.
+    later = BASE + dt.timedelta(hours=1)
+    assert sql.insert_with_vessel(vessel_a.pk, fixes[1:], later, newest=fixes[1], summary={}) == []
+    vessel_a.refresh_from_db()
+    assert vessel_a.last_fix == {"time": "newest"} and vessel_a.last_seen_at == later

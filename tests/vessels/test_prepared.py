@@ -1,4 +1,4 @@
-"""vessels.prepared: the single post's statement, planned once per PostgreSQL connection."""
+"""vessels.sql.execute_prepared: the single post, planned once per PostgreSQL connection."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from django.db import connection
 from django.test.utils import CaptureQueriesContext
 
-from vessels.prepared import execute_prepared
+from vessels.sql import execute_prepared
 
 pytestmark = pytest.mark.django_db(transaction=True)
 

@@ -18,6 +18,7 @@ from rest_framework.request import Request
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
+from edge_client.contract import batch
 from vessels.api.parsers import JSONParser
 from vessels.auth import LegacyKeyAuthentication, VesselKeyAuthentication
 from vessels.models import Vessel
@@ -73,14 +74,9 @@ class AwareDateTimeField(serializers.DateTimeField):
 
 def batch_answer_schema(name: str) -> serializers.Serializer:
     """The API schema of a batch upload's answer (edge_client.contract.batch), named ``name``."""
-    return inline_serializer(
-        name,
-        {
-            "accepted": serializers.IntegerField(),
-            "duplicates": serializers.IntegerField(),
-            "rejected": serializers.ListField(child=serializers.DictField()),
-        },
-    )
+    counts = (serializers.IntegerField(), serializers.IntegerField())
+    rejected = serializers.ListField(child=serializers.DictField())
+    return inline_serializer(name, dict(zip(batch.KEYS, (*counts, rejected), strict=True)))
 
 
 def telem_ack(success: bool, message: str) -> list[dict[str, str]]:

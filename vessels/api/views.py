@@ -13,6 +13,7 @@ from rest_framework.request import Request
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
+from edge_client.contract import fix as fix_shape
 from vessels.api.conditional import etag_matches
 from vessels.api.serializers import FleetSerializer, VesselSerializer, VesselUpdateSerializer
 from vessels.models import Vessel
@@ -42,7 +43,7 @@ class VesselViewSet(viewsets.ReadOnlyModelViewSet):
         return Response(VesselSerializer(vessel).data)
 
 
-LAST_FIX_FIELDS = ("time", "lat", "lon", "heading_deg", "speed_mps", "battery_v", "readings")
+LAST_FIX_FIELDS = fix_shape.FIELDS  # the copy kept on Vessel.last_fix is a fix as posted
 
 
 def admin_url_template() -> str:

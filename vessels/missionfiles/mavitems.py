@@ -16,6 +16,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from edge_client.contract import mavcmd
 from edge_client.contract.mavcmd import MavCmd
 from vessels.errors import MissionFileError
 from vessels.missionfiles.model import (
@@ -37,53 +38,38 @@ NAV_RETURN_TO_LAUNCH = MavCmd.NAV_RETURN_TO_LAUNCH
 DO_JUMP = MavCmd.DO_JUMP
 DO_CHANGE_SPEED = MavCmd.DO_CHANGE_SPEED
 
-# MAV_CMD names (common.xml) for the commands mission files commonly hold; others are
-# named "MAV_CMD <n>".
-MAV_CMD_NAMES = {
-    16: "NAV_WAYPOINT",
-    17: "NAV_LOITER_UNLIM",
-    18: "NAV_LOITER_TURNS",
-    19: "NAV_LOITER_TIME",
-    20: "NAV_RETURN_TO_LAUNCH",
-    21: "NAV_LAND",
-    22: "NAV_TAKEOFF",
-    31: "NAV_LOITER_TO_ALT",
-    80: "NAV_ROI",
-    82: "NAV_SPLINE_WAYPOINT",
-    84: "NAV_VTOL_TAKEOFF",
-    85: "NAV_VTOL_LAND",
-    93: "NAV_DELAY",
-    112: "CONDITION_DELAY",
-    113: "CONDITION_CHANGE_ALT",
-    114: "CONDITION_DISTANCE",
-    115: "CONDITION_YAW",
-    176: "DO_SET_MODE",
-    177: "DO_JUMP",
-    178: "DO_CHANGE_SPEED",
-    179: "DO_SET_HOME",
-    181: "DO_SET_RELAY",
-    182: "DO_REPEAT_RELAY",
-    183: "DO_SET_SERVO",
-    184: "DO_REPEAT_SERVO",
-    189: "DO_LAND_START",
-    193: "DO_PAUSE_CONTINUE",
-    194: "DO_SET_REVERSE",
-    195: "DO_SET_ROI_LOCATION",
-    201: "DO_SET_ROI",
-    202: "DO_DIGICAM_CONFIGURE",
-    203: "DO_DIGICAM_CONTROL",
-    205: "DO_MOUNT_CONTROL",
-    206: "DO_SET_CAM_TRIGG_DIST",
-    211: "DO_GRIPPER",
-    214: "DO_SET_CAM_TRIGG_INTERVAL",
-    2000: "IMAGE_START_CAPTURE",
-    2001: "IMAGE_STOP_CAPTURE",
-    2500: "VIDEO_START_CAPTURE",
-    2501: "VIDEO_STOP_CAPTURE",
-    3000: "DO_VTOL_TRANSITION",
-}
-_FOR_AIRCRAFT = {21, 22, 31, 84, 85, 113, 189, 3000}
-_CAMERA = {200, 201, 202, 203, 204, 205, 206, 214, 530, 2000, 2001, 2500, 2501}
+# Commands a boat cannot carry out, by MAVLink's name (mavcmd.name), for the reason given.
+_FOR_AIRCRAFT = frozenset(
+    f"MAV_CMD_{n}"
+    for n in (
+        "NAV_LAND",
+        "NAV_TAKEOFF",
+        "NAV_LOITER_TO_ALT",
+        "NAV_VTOL_TAKEOFF",
+        "NAV_VTOL_LAND",
+        "CONDITION_CHANGE_ALT",
+        "DO_LAND_START",
+        "DO_VTOL_TRANSITION",
+    )
+)
+_CAMERA = frozenset(
+    f"MAV_CMD_{n}"
+    for n in (
+        "DO_CONTROL_VIDEO",
+        "DO_SET_ROI",
+        "DO_DIGICAM_CONFIGURE",
+        "DO_DIGICAM_CONTROL",
+        "DO_MOUNT_CONFIGURE",
+        "DO_MOUNT_CONTROL",
+        "DO_SET_CAM_TRIGG_DIST",
+        "DO_SET_CAM_TRIGG_INTERVAL",
+        "SET_CAMERA_MODE",
+        "IMAGE_START_CAPTURE",
+        "IMAGE_STOP_CAPTURE",
+        "VIDEO_START_CAPTURE",
+        "VIDEO_STOP_CAPTURE",
+    )
+)
 
 # MAV_FRAME: positions a boat can sail to are global latitude/longitude (the altitude is
 # ignored at the surface); DO commands carry no position and are written in MAV_FRAME_MISSION.
@@ -91,20 +77,6 @@ FRAME_GLOBAL = 0
 FRAME_MISSION = 2
 FRAME_GLOBAL_RELATIVE_ALT = 3
 NAV_FRAMES = {FRAME_GLOBAL, FRAME_GLOBAL_RELATIVE_ALT, 5, 6}  # 5, 6: the deprecated *_INT
-FRAME_NAMES = {
-    0: "GLOBAL",
-    1: "LOCAL_NED",
-    2: "MISSION",
-    3: "GLOBAL_RELATIVE_ALT",
-    4: "LOCAL_ENU",
-    5: "GLOBAL_INT",
-    6: "GLOBAL_RELATIVE_ALT_INT",
-    7: "LOCAL_OFFSET_NED",
-    8: "BODY_NED",
-    9: "BODY_OFFSET_NED",
-    10: "GLOBAL_TERRAIN_ALT",
-    11: "GLOBAL_TERRAIN_ALT_INT",
-}
 _TERRAIN_FRAMES = {10, 11}
 
 # ArduPilot DO_JUMP: a repeat count of -1 repeats for ever (edge_client/mission.JUMP_FOREVER).
@@ -115,13 +87,12 @@ THROTTLE_NO_CHANGE = -1
 
 
 def command_name(command: int) -> str:
-    name = MAV_CMD_NAMES.get(command)
-    return f"MAV_CMD_{name}" if name else f"MAV_CMD {command}"
+    """MAVLink's name for a MAV_CMD number (pymavlink's), or "MAV_CMD <n>" for one it lacks."""
+    return mavcmd.name("MAV_CMD", command) or f"MAV_CMD {command}"
 
 
 def frame_name(frame: int) -> str:
-    name = FRAME_NAMES.get(frame)
-    return f"MAV_FRAME_{name}" if name else f"MAV_FRAME {frame}"
+    return mavcmd.name("MAV_FRAME", frame) or f"MAV_FRAME {frame}"
 
 
 @dataclass(frozen=True)
@@ -144,9 +115,10 @@ class RawItem:
 
 
 def _why_unsupported(command: int) -> str:
-    if command in _FOR_AIRCRAFT:
+    name = mavcmd.name("MAV_CMD", command)
+    if name in _FOR_AIRCRAFT:
         return "takeoff, landing and altitude commands are for aircraft"
-    if command in _CAMERA:
+    if name in _CAMERA:
         return "camera and gimbal actions are not part of a Shoreside mission"
     return "a Shoreside mission holds waypoints, holds, speed changes, a loop or a return home"
 

@@ -18,6 +18,8 @@ from vessels.missions import (
     ENDS,
     HOLD_MAX_S,
     ITEM_FIELDS,
+    LAT_RANGE,
+    LON_RANGE,
     RADIUS_MAX_M,
     RADIUS_MIN_M,
     SPEED_MAX_MPS,
@@ -68,9 +70,11 @@ def position(where: str, lat: Any, lon: Any) -> tuple[float, float]:
         raise MissionFileError(
             f"{where}: latitude and longitude must be numbers (got {lat!r}, {lon!r})"
         )
-    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+    (lat_lo, lat_hi), (lon_lo, lon_hi) = LAT_RANGE, LON_RANGE
+    if not (lat_lo <= lat <= lat_hi and lon_lo <= lon <= lon_hi):
         raise MissionFileError(
-            f"{where}: position {lat}, {lon} is outside -90…90 latitude, -180…180 longitude"
+            f"{where}: position {lat}, {lon} is outside {lat_lo:g}…{lat_hi:g} latitude, "
+            f"{lon_lo:g}…{lon_hi:g} longitude"
         )
     return float(lat), float(lon)
 

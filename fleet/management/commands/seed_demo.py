@@ -16,6 +16,7 @@ from django.utils import timezone
 
 from commands.models import Source
 from commands.services import command_ack, command_claim_open, command_enqueue
+from edge_client.contract.status import Status
 from fleet.demo_track import SimBoat, patrol_route
 from fleet.files import write_private
 from sms.services import authorised_number_authorise
@@ -47,7 +48,7 @@ OPERATOR_PERMS = {
     "sms": ["view_authorisednumber", "add_authorisednumber", "change_authorisednumber",
             "view_smsmessage"],
 }  # fmt: skip
-# A field user's phone that may command the demo glider (docs/development.md: the demo glider; manage.py demo_sms).
+# A field user's phone that may command the demo glider (docs/development.md; manage.py demo_sms).
 DEMO_NUMBER = "+61400000001"
 DEMO_VESSELS = [
     # slug, name, kind, start (lat, lon), telemetry period
@@ -161,8 +162,8 @@ class Command(BaseCommand):
             created_by=user.username,
         )
         command_claim_open(vessel=spab)
-        command_ack(vessel=spab, uid=done.uid, status="acknowledged")
-        command_ack(vessel=spab, uid=done.uid, status="done", detail="arrived")
+        command_ack(vessel=spab, uid=done.uid, status=Status.ACKNOWLEDGED)
+        command_ack(vessel=spab, uid=done.uid, status=Status.DONE, detail="arrived")
         mission = mission_save(mission=Mission(name="Gage Roads loop", vessel=spab, end="loop"))
         mission_save_items(
             mission=mission,

@@ -360,7 +360,7 @@
         : "Click a point: " + v.name + " will hold the bearing towards it (Esc cancels). Or type one:";
       var pickBox = el("div", { class: "pick-hint" }, [el("p", { text: hint })]);
       if (this.pick.input === "bearing") {
-        var input = el("input", { type: "number", min: "0", max: "359", step: "1", name: "bearing", class: "vTextField bearing-input" });
+        var input = el("input", { type: "number", min: String(this.pick.action.min), max: String(this.pick.action.max), step: "1", name: "bearing", class: "vTextField bearing-input" });
         input.value = this.pick.typed || "";
         pickBox.appendChild(el("p", {}, [input, " ° ", el("button", { type: "button", class: "button use-bearing", text: "Use", onclick: function () {
           self.typedBearing(input.value);
@@ -443,12 +443,12 @@
   };
 
   // A typed heading is sent as typed or not at all: 400 once wrapped to 040° and the boat
-  // turned the wrong way. The catalog refuses the same (0-359, whole degrees).
+  // turned the wrong way. The range is the catalog's (the action's min and max, whole degrees).
   FleetMap.prototype.typedBearing = function (raw) {
-    var text = String(raw).trim(), value = Number(text);
+    var text = String(raw).trim(), value = Number(text), lo = this.pick.action.min, hi = this.pick.action.max;
     this.pick.typed = text;
-    if (text === "" || !Number.isInteger(value) || value < 0 || value > 359) {
-      this.message = { kind: "error", text: "A heading is a whole number of degrees from 0 to 359" +
+    if (text === "" || !Number.isInteger(value) || value < lo || value > hi) {
+      this.message = { kind: "error", text: "A heading is a whole number of degrees from " + lo + " to " + hi +
         (text ? " (you typed " + text + ")." : ".") };
       this.renderActions();
       return;

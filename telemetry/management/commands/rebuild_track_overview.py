@@ -23,6 +23,7 @@ from typing import Any
 from django.core.management.base import BaseCommand, CommandError, CommandParser
 from django.db import close_old_connections
 
+from edge_client.contract.backoff import UNTIL_THE_CAP, after_failures
 from telemetry.services import (
     REBUILD_WINDOW_S,
     track_overview_dirty_vessels,
@@ -45,7 +46,7 @@ WINDOWS_PER_PASS = 30
 
 def retry_delay(failures: int) -> float:
     """Seconds to leave a vessel alone after its ``failures``-th failure in a row."""
-    return min(RETRY_FIRST_S * 2 ** (failures - 1), RETRY_MAX_S)
+    return after_failures(RETRY_FIRST_S, failures - 1, cap=RETRY_MAX_S, max_doublings=UNTIL_THE_CAP)
 
 
 class Command(BaseCommand):

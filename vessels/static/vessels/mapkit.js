@@ -5,7 +5,9 @@
 (function () {
   "use strict";
   var S = (window.Shoreside = window.Shoreside || {});
-  // Mean Earth radius, IUGG; the same sphere as edge_client/contract/geo.py (the browser test compares them); JavaScript cannot import the contract, so this is the one copy left.
+  // Distance and bearing are edge_client/contract/geo.py's sums, and this is their one
+  // JavaScript copy (a page cannot import the contract): tests/browser/test_fleet_map.py
+  // compares the two on some five hundred pairs of points. Mean Earth radius, IUGG.
   var EARTH_RADIUS_M = 6371000;
   var GRID_STEPS = [30, 10, 5, 2, 1, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005];
   var GRID_MAX_LINES = 8;
