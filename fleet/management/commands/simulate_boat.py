@@ -22,6 +22,8 @@ from typing import Any
 from django.conf import settings
 from django.core.management.base import BaseCommand, CommandError, CommandParser
 
+from fleet.sim_options import start_position, vessel_key
+
 STOP_TIMEOUT_S = 10.0  # the edge client's clean stop takes one poll or send at most
 KEY_ENV = "SHORESIDE_EDGE_KEY"  # edge_client/config.py: the key stays out of `ps` output
 
@@ -51,11 +53,8 @@ class Command(BaseCommand):
         )
 
     def handle(self, *args: Any, **opts: Any) -> None:
-        key = self.key(opts)
-        try:
-            lat, lon = (float(v) for v in opts["start"].split(","))
-        except ValueError:
-            raise CommandError("--start must be lat,lon") from None
+        key = vessel_key(opts)
+        lat, lon = start_position(opts["start"])
         outbox = Path(opts["outbox"] or settings.DATA_DIR / f"demo-boat-{opts['port']}.sqlite3")
         self.stopping = False
         previous = {sig: signal.signal(sig, self._stop) for sig in (signal.SIGTERM, signal.SIGINT)}
@@ -77,14 +76,6 @@ class Command(BaseCommand):
         if died is not None:
             raise CommandError(f"the {died} exited with {procs[died].returncode}")
         self.stdout.write("simulated boat stopped")
-
-    @staticmethod
-    def key(opts: dict[str, Any]) -> str:
-        if opts["key"]:
-            return str(opts["key"]).strip()
-        if opts["key_file"]:
-            return Path(opts["key_file"]).read_text().strip()
-        raise CommandError("give --key or --key-file")
 
     def _stop(self, signum: int, frame: Any) -> None:
         self.stopping = True

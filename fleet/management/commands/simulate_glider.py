@@ -38,6 +38,7 @@ from django.core.management import call_command
 from django.core.management.base import BaseCommand, CommandError, CommandParser
 from django.db import connections
 
+from fleet.sim_options import start_position, vessel_key
 from sms.bridge.records import RecordTable
 from sms.bridge.sensor_standin import RecordServer, demo_values
 from sms.level2.motion import Motion
@@ -71,11 +72,8 @@ class Command(BaseCommand):
         add("--duration", type=float, default=0.0, help="stop after this many seconds (0: never)")
 
     def handle(self, *args: Any, **opts: Any) -> None:
-        key = self.key(opts)
-        try:
-            lat, lon = (float(v) for v in opts["start"].split(","))
-        except ValueError:
-            raise CommandError("--start must be lat,lon") from None
+        key = vessel_key(opts)
+        lat, lon = start_position(opts["start"])
         if not 1 <= opts["period"] <= 255:
             raise CommandError("--period must be 1..255 s")
         control = Path(opts["control"] or Path(settings.DATA_DIR) / CONTROL_NAME)
@@ -106,17 +104,6 @@ class Command(BaseCommand):
         if died and bridge is not None:
             raise CommandError(f"the bridge exited with {bridge.returncode}")
         self.say("simulated glider stopped")
-
-    @staticmethod
-    def key(opts: dict[str, Any]) -> str:
-        if opts["key"]:
-            return str(opts["key"]).strip()
-        if opts["key_file"]:
-            try:
-                return Path(opts["key_file"]).read_text().strip()
-            except OSError as exc:
-                raise CommandError(f"cannot read the key file: {exc}") from None
-        raise CommandError("give --key or --key-file")
 
     def prepare(self, slug: str) -> None:
         """The glider's own database, as its Pi would have it: migrated, with the vessel."""
