@@ -347,7 +347,14 @@ def test_the_map_comes_first_holds_and_speeds_are_set_in_rows_and_the_leg_to_way
     assert browser.find_element(By.NAME, "items-1-hold_s").get_attribute("value") == "45"
     assert js(browser, "return document.activeElement.dataset.for") == "items-1-hold_s"
     speed = row_input(browser, "speed", 1)
+    # A typo is marked in the row at once, not read as a number (parseFloat would take 4).
+    speed.send_keys("4o")
+    wait_for(browser, lambda b: "planner-input-invalid" in speed.get_attribute("class"))
+    assert js(browser, "return document.activeElement.validity.valid") is False
+    assert "not a number of m/s" in speed.get_attribute("title")
+    speed.clear()
     speed.send_keys("3")
+    wait_for(browser, lambda b: "planner-input-invalid" not in speed.get_attribute("class"))
     reviewed(browser)
     assert browser.find_element(By.NAME, "items-1-speed_mps").get_attribute("value") == "3"
     wait_for(

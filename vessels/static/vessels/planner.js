@@ -44,10 +44,12 @@
   // --- the rows (the form) ---------------------------------------------------------------
 
   function field(row, name) { return row.querySelector('[name$="-' + name + '"]'); }
+  // A field's number, or null when it is empty or not a number: strict (Number, not
+  // parseFloat), so a typo like "4o" is no number rather than 4.
   function num(input) {
-    if (!input || input.value === "") { return null; }
-    var v = parseFloat(input.value);
-    return isNaN(v) ? null : v;
+    if (!input || input.value.trim() === "") { return null; }
+    var v = Number(input.value.trim());
+    return isFinite(v) ? v : null;
   }
 
   Planner.prototype.rows = function () {
@@ -349,8 +351,17 @@
       title: hold ? "Seconds to hold at this waypoint" : "Speed from this waypoint on, m/s (empty: the vessel's cruise speed)",
     });
     // An emptied hold is no hold (the form's field needs a number); an emptied speed is the
-    // cruise speed.
-    box.addEventListener("input", function () { target.value = box.value.trim() || (hold ? "0" : ""); });
+    // cruise speed. A typo ("4o", "fast") is marked in the row at once, not read as 4 or as
+    // the cruise speed: the form refuses it on save, but the figures meanwhile would lie.
+    box.addEventListener("input", function () {
+      var text = box.value.trim();
+      target.value = text || (hold ? "0" : "");
+      var bad = text !== "" && !(isFinite(Number(text)) && Number(text) >= 0);
+      box.setCustomValidity(bad ? "not a number of " + (hold ? "seconds" : "m/s") : "");
+      box.title = bad ? "“" + text + "” is not a number of " + (hold ? "seconds" : "m/s") + ": this row's figures ignore it, and Save refuses it" : box.dataset.help;
+      box.classList.toggle("planner-input-invalid", bad);
+    });
+    box.dataset.help = box.title;
     return box;
   };
 
