@@ -5,6 +5,7 @@ runserver) and their real log output."""
 from __future__ import annotations
 
 import os
+import socket
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -59,14 +60,17 @@ def _serve(args: list[str], port: int, log: Path) -> Iterator[str]:
                                 stderr=subprocess.STDOUT)  # fmt: skip
         try:
             url = f"http://127.0.0.1:{port}"
-            wait_until(lambda: _answers(url), 60, f"{args[1]} on port {port}")
+            wait_until(lambda: _answers(url, proc, log), 60, f"{args[1]} on port {port}")
             yield url
         finally:
             proc.terminate()
             proc.wait(15)
 
 
-def _answers(url: str) -> bool:
+def _answers(url: str, proc: subprocess.Popen, log: Path) -> bool:
+    # A server that died (say its port was taken) fails at once and shows why, not after 60 s.
+    if proc.poll() is not None:
+        raise AssertionError(f"server exited {proc.returncode}:\n{log.read_text()[-2000:]}")
     try:
         requests.get(url + COMMANDS, timeout=10)
     except requests.ConnectionError:
@@ -89,7 +93,7 @@ def _use_keys_in_queries(url: str, key: str) -> None:
 def test_gunicorn_as_the_readme_runs_it_logs_no_key(
     vessel_a: Vessel, key_a: str, tmp_path: Path
 ) -> None:
-    port, log = free_port(), tmp_path / "gunicorn.log"
+    port, log = free_port(socket.SOCK_STREAM), tmp_path / "gunicorn.log"
     # The README's production command (gunicorn reads ./gunicorn.conf.py by itself).
     args = ["-m", "gunicorn", "fleet.wsgi", "-w", "1", "-b", f"127.0.0.1:{port}",
             "--access-logfile", "-", "--error-logfile", "-"]  # fmt: skip
@@ -104,7 +108,7 @@ def test_gunicorn_as_the_readme_runs_it_logs_no_key(
 
 @pytest.mark.django_db(transaction=True)
 def test_runserver_logs_no_key(vessel_a: Vessel, key_a: str, tmp_path: Path) -> None:
-    port, log = free_port(), tmp_path / "runserver.log"
+    port, log = free_port(socket.SOCK_STREAM), tmp_path / "runserver.log"
     args = ["manage.py", "runserver", f"127.0.0.1:{port}", "--noreload", "--skip-checks"]
     for url in _serve(args, port, log):
         _use_keys_in_queries(url, key_a)
