@@ -178,11 +178,13 @@ INSTALLED_APPS = [
     "drf_spectacular",
     "drf_spectacular_sidecar",
     "leaflet",
+    "audit",
     "operators",
     "vessels",
     "telemetry",
     "commands",
     "sms",
+    "alerts",
     "fleet",
 ]
 

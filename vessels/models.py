@@ -215,3 +215,35 @@ class MissionItem(models.Model):
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in ITEM_FIELDS}
+
+
+class Fence(models.Model):
+    """An area a vessel must stay inside (inclusion) or outside (exclusion): a polygon, or a
+    circle (a GeoJSON Point with ``radius_m``). The alerts' fence rules watch it on the shore;
+    the `fence` command loads the same geometry into an ArduPilot boat's autopilot."""
+
+    name = models.CharField(max_length=100)
+    vessel = models.ForeignKey(
+        Vessel,
+        on_delete=models.CASCADE,
+        null=True,
+        blank=True,
+        related_name="fences",
+        help_text="Leave empty for a fence every vessel keeps.",
+    )
+    inclusion = models.BooleanField(
+        default=True, help_text="Stay inside (inclusion) or stay out (exclusion)."
+    )
+    # GeoJSON geometry, [lon, lat] order as GeoJSON has it: a Polygon (outer ring only, closed)
+    # or a Point, the centre of a circle of radius_m.
+    geometry = models.JSONField()
+    radius_m = models.FloatField("radius (m)", null=True, blank=True)
+    notes = models.TextField(blank=True)
+    created_at = models.DateTimeField(auto_now_add=True)
+    updated_at = models.DateTimeField(auto_now=True)
+
+    class Meta:
+        ordering = ["name"]
+
+    def __str__(self) -> str:
+        return self.name

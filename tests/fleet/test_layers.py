@@ -17,8 +17,10 @@ from packaging.utils import canonicalize_name
 
 ROOT = Path(__file__).resolve().parents[2]
 # An app may import apps of a lower layer only; apps of one layer do not import each other.
-# operators (the operators' own API tokens and login limit) sits at the bottom beside vessels.
-LAYER = {"operators": 0, "vessels": 0, "telemetry": 1, "commands": 1, "sms": 2, "fleet": 3}
+# audit (the log every service writes) is the floor; operators (the operators' own API tokens
+# and login limit) sits beside vessels; alerts watch everything below and notify through sms.
+LAYER = {"audit": 0, "operators": 1, "vessels": 1, "telemetry": 2, "commands": 2, "sms": 3,
+         "alerts": 4, "fleet": 5}  # fmt: skip
 STANDALONE = {"edge_client": {"django", "rest_framework", *LAYER}}
 
 
