@@ -22,6 +22,7 @@ from typing import Any
 import pytest
 
 from alerts.models import Alert, AlertRule, NotificationChannel
+from alerts.services.notifications import notification_channel_create
 from vessels.models import Vessel
 
 BASE = dt.datetime(2026, 11, 28, 3, 12, tzinfo=dt.UTC)
@@ -221,8 +222,10 @@ def make_alert(rule: AlertRule, vessel: Vessel, *, detail: str = "silent 25 min 
 
 
 def make_channel(
-    kind: str, target: str, *, secret: str = "", name: str = ""
+    kind: str, target: str, *, secret: str | None = None, name: str = ""
 ) -> NotificationChannel:
-    return NotificationChannel.objects.create(
-        name=name or f"{kind} {target}", kind=kind, target=target, secret=secret
+    """Through the service, as the admin and the API make them (the target normalised)."""
+    channel, _secret = notification_channel_create(
+        name=name or f"{kind} {target}", kind=kind, target=target, secret=secret, by="tester"
     )
+    return channel
