@@ -151,8 +151,7 @@ def _deliver(rows: list[Notification], transports: dict[str, Any], *, token: str
              now: dt.datetime) -> int:  # fmt: skip
     carrier, channel = rows[0], rows[0].channel
     if not channel.active:
-        for row in rows:
-            _settle(row, token, state=FAILED, last_error="the channel was turned off")
+        _settle(rows, token, state=FAILED, last_error="the channel was turned off")
         return 0
     event = carrier.event
     message: Message = (
@@ -174,9 +173,10 @@ def _deliver(rows: list[Notification], transports: dict[str, Any], *, token: str
         for row in rows:
             _failed(row, token, now=now, error=repr(exc), permanent=False, channel=channel)
         return 0
-    done = _settle(carrier, token, state=SENT, sent_at=now, last_error="")
-    for row in rows[1:]:
-        done += _settle(row, token, state=SENT, sent_at=now, last_error="", summarised_in=carrier)
+    done = _settle([carrier], token, state=SENT, sent_at=now, last_error="")
+    if len(rows) > 1:  # one UPDATE for the flood it carried
+        done += _settle(rows[1:], token, state=SENT, sent_at=now, last_error="",
+                        summarised_in=carrier)  # fmt: skip
     what = f"summary of {len(rows)}" if len(rows) > 1 else f"alert {carrier.alert_id}"
     log.info("%s sent to %s (%s)", event, channel, what)
     return done
@@ -188,22 +188,23 @@ def _failed(row: Notification, token: str, *, now: dt.datetime, error: str, perm
     if permanent or row.attempts >= max_attempts:
         why = error if permanent else f"gave up after {row.attempts} attempts: {error}"
         log.error("notification %s to %s failed: %s", row.pk, channel, why)
-        _settle(row, token, state=FAILED, last_error=why[:ERROR_MAX])
+        _settle([row], token, state=FAILED, last_error=why[:ERROR_MAX])
         return
     wait = after_failures(RETRY_FIRST_S, row.attempts - 1, cap=RETRY_MAX_S,
                           max_doublings=UNTIL_THE_CAP)  # fmt: skip
     log.warning("notification %s to %s not sent (%s); again in %.0f s", row.pk, channel, error,
                 wait)  # fmt: skip
-    _settle(row, token, state=PENDING, due_at=now + dt.timedelta(seconds=wait),
+    _settle([row], token, state=PENDING, due_at=now + dt.timedelta(seconds=wait),
             claimed_by="", claimed_at=None, last_error=error[:ERROR_MAX])  # fmt: skip
 
 
-def _settle(row: Notification, token: str, **changes: Any) -> int:
-    """Write the outcome if the row is still this pass's claim. 0 when a stale-claim takeover
-    got it first (this pass outlived CLAIM_TIMEOUT): the other worker's outcome stands."""
-    won = Notification.objects.filter(pk=row.pk, state=SENDING, claimed_by=token).update(**changes)
-    if not won:
-        log.warning("notification %s was reclaimed by another worker meanwhile", row.pk)
+def _settle(rows: list[Notification], token: str, **changes: Any) -> int:
+    """Write the outcome to the rows still claimed by this pass; return how many. Fewer when a
+    stale-claim takeover got some first (this pass outlived CLAIM_TIMEOUT): theirs stands."""
+    pks = [row.pk for row in rows]
+    won = Notification.objects.filter(pk__in=pks, state=SENDING, claimed_by=token).update(**changes)
+    if won < len(rows):
+        log.warning("%d of notifications %s were reclaimed meanwhile", len(rows) - won, pks)
     return won
 
 
