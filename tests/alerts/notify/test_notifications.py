@@ -79,7 +79,7 @@ def test_a_due_notification_is_sent_signed_once(hook: NotificationChannel, recei
 
 
 def test_a_failing_receiver_is_retried_with_backoff_until_it_answers(
-    hook: NotificationChannel, receiver: Receiver
+    hook: NotificationChannel, receiver: Receiver, caplog: pytest.LogCaptureFixture
 ) -> None:
     receiver.answers = [500, 503]
     notifications_queue(alert=make_alert(make_rule("Overdue", hook), make_vessel("spab")),
@@ -88,6 +88,7 @@ def test_a_failing_receiver_is_retried_with_backoff_until_it_answers(
     row = Notification.objects.get()
     assert (row.state, row.attempts, row.due_at) == ("pending", 1, BASE + 30 * S)
     assert "answered 500" in row.last_error and row.claimed_by == ""
+    assert "not sent" in caplog.text and "again in 30 s" in caplog.text
     assert notifications_send_due(now=BASE + 29 * S, worker="w1") == 0  # waiting
     assert notifications_send_due(now=BASE + 30 * S, worker="w1") == 0  # 503: doubled wait
     row.refresh_from_db()
@@ -111,7 +112,7 @@ def test_a_permanent_refusal_fails_at_once(hook: NotificationChannel, receiver: 
 
 
 def test_a_channel_that_keeps_failing_is_given_up_after_the_last_attempt(
-    settings: Any, hook: NotificationChannel, receiver: Receiver
+    settings: Any, hook: NotificationChannel, receiver: Receiver, caplog: pytest.LogCaptureFixture
 ) -> None:
     settings.ALERTS_NOTIFY_MAX_ATTEMPTS = 3
     receiver.answers = [502] * 5
@@ -122,6 +123,7 @@ def test_a_channel_that_keeps_failing_is_given_up_after_the_last_attempt(
     row = Notification.objects.get()
     assert (row.state, row.attempts) == ("failed", 3)
     assert row.last_error.startswith("gave up after 3 attempts: ")
+    assert "failed: gave up after 3 attempts" in caplog.text
     assert len(receiver.received) == 3
 
 
