@@ -131,10 +131,11 @@ def test_nobody_listening_is_temporary(unused_port: int) -> None:
 # -- SMS ---------------------------------------------------------------------------------------
 
 
-@pytest.fixture
-def modem() -> Iterator[tuple[SimulatedModem, ModemServer]]:
+@pytest.fixture(params=["pty", "tcp:0"])
+def modem(request: pytest.FixtureRequest) -> Iterator[tuple[SimulatedModem, ModemServer]]:
+    """The simulator on a pseudo-terminal (a USB modem's tty) or TCP (a serial server)."""
     sim = SimulatedModem()
-    with ModemServer(sim, "pty") as server:
+    with ModemServer(sim, request.param) as server:
         yield sim, server
 
 
@@ -167,6 +168,20 @@ def test_the_networks_refusals_say_whether_to_retry(modem) -> None:  # type: ign
     sender.send_sms(NUMBER, "third time")
     sender.close()
     assert [s.text for s in sim.sent] == ["third time"]
+
+
+def test_two_senders_take_turns_on_one_modem_port() -> None:
+    sim = SimulatedModem()
+    with ModemServer(sim, "pty") as server:
+        first, second = ModemSender(fast(server.url)), ModemSender(fast(server.url))
+        first.send_sms(NUMBER, "first")  # holds the port (and its lock) until closed
+        busy = error_of(lambda: second.send_sms(NUMBER, "second"))
+        assert not busy.permanent and "cannot open" in str(busy)
+        first.close()
+        second = ModemSender(fast(server.url))  # the next pass
+        second.send_sms(NUMBER, "second")
+        second.close()
+    assert [s.text for s in sim.sent] == ["first", "second"]
 
 
 def test_a_modem_that_is_not_there_is_temporary(tmp_path) -> None:  # type: ignore[no-untyped-def]
