@@ -116,11 +116,20 @@ def _claim(*, now: dt.datetime, token: str, limit: int) -> list[Notification]:
     due = Q(state__in=[PENDING, SENDING], due_at__lte=now) & (
         Q(state=PENDING) | Q(claimed_at__lt=now - CLAIM_TIMEOUT)
     )
-    candidates = list(
+    rows = list(
         Notification.objects.filter(due)
         .order_by("due_at", "pk")
-        .values_list("pk", flat=True)[:limit]
+        .values_list("pk", "state", "attempts")[:limit]
     )
+    # A stale claim that has had all its attempts: its sender died in the middle each time
+    # (a send that kills the process?); taking it again would only repeat that for ever.
+    spent = [pk for pk, state, tries in rows if state == SENDING and tries >= _max_attempts()]
+    if spent:
+        log.error("notifications %s: their senders never came back; given up", spent)
+        Notification.objects.filter(due, pk__in=spent).update(
+            state=FAILED, last_error="given up: the sender never came back from sending it"
+        )
+    candidates = [pk for pk, _state, _tries in rows if pk not in spent]
     if not candidates:
         return []
     # Races with another worker's identical UPDATE: whichever commits first takes a row; the
@@ -154,15 +163,15 @@ def _deliver(rows: list[Notification], transports: dict[str, Any], *, token: str
         _settle(rows, token, state=FAILED, last_error="the channel was turned off")
         return 0
     event = carrier.event
-    message: Message = (
-        texts.single(event, carrier.alert)
-        if len(rows) == 1
-        else texts.summary(event, [row.alert for row in rows])
-    )
     transport: Transport | None = transports.get(channel.kind)
     try:
         if transport is None:
             raise TransportError(f"no transport for {channel.kind!r} channels", permanent=True)
+        message: Message = (
+            texts.single(event, carrier.alert)
+            if len(rows) == 1
+            else texts.summary(event, [row.alert for row in rows])
+        )
         transport.send(channel, message)
     except TransportError as exc:
         for row in rows:
@@ -182,10 +191,13 @@ def _deliver(rows: list[Notification], transports: dict[str, Any], *, token: str
     return done
 
 
+def _max_attempts() -> int:
+    return settings.ALERTS_NOTIFY_MAX_ATTEMPTS
+
+
 def _failed(row: Notification, token: str, *, now: dt.datetime, error: str, permanent: bool,
             channel: NotificationChannel) -> None:  # fmt: skip
-    max_attempts = settings.ALERTS_NOTIFY_MAX_ATTEMPTS
-    if permanent or row.attempts >= max_attempts:
+    if permanent or row.attempts >= _max_attempts():
         why = error if permanent else f"gave up after {row.attempts} attempts: {error}"
         log.error("notification %s to %s failed: %s", row.pk, channel, why)
         _settle([row], token, state=FAILED, last_error=why[:ERROR_MAX])

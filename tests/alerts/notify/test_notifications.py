@@ -152,6 +152,19 @@ def test_a_claim_left_by_a_dead_worker_is_taken_over_when_stale(
     assert len(receiver.received) == 1
 
 
+def test_a_claim_whose_sender_died_on_every_attempt_is_given_up(
+    settings: Any, hook: NotificationChannel, receiver: Receiver
+) -> None:
+    settings.ALERTS_NOTIFY_MAX_ATTEMPTS = 3
+    notifications_queue(alert=make_alert(make_rule("Overdue", hook), make_vessel("spab")),
+                        event="alert.opened", now=BASE)  # fmt: skip
+    Notification.objects.update(state="sending", claimed_by="dead/3", claimed_at=BASE, attempts=3)
+    assert notifications_send_due(now=BASE + CLAIM_TIMEOUT + S, worker="w2") == 0
+    row = Notification.objects.get()
+    assert row.state == "failed" and "never came back" in row.last_error
+    assert receiver.received == []
+
+
 def test_a_channel_turned_off_after_queueing_sends_nothing(
     hook: NotificationChannel, receiver: Receiver
 ) -> None:
