@@ -22,3 +22,4 @@ bench:           ## server, maps, Level 2, SMS, bridge and edge client benchmark
 	.venv/bin/python -m bench.bridge
 	.venv/bin/python -m bench.wg_bridge
 	.venv/bin/python -m bench.edge
+	.venv/bin/python -m bench.notify

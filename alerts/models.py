@@ -39,6 +39,14 @@ class NotificationChannel(models.Model):
     def __str__(self) -> str:
         return f"{self.name} ({self.kind})"
 
+    def clean(self) -> None:
+        """The target checked and normalised for the kind (E.164 for a number): one rule for
+        the admin, the API and the service (alerts.notify.targets)."""
+        from alerts.notify.targets import clean_target  # models load before the sms services
+
+        if self.kind in ChannelKind.values:
+            self.target = clean_target(self.kind, self.target)
+
 
 class AlertRule(models.Model):
     name = models.CharField(max_length=100)

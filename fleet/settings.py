@@ -409,6 +409,44 @@ if SMS_DEFAULT_REGION not in phonenumbers.SUPPORTED_REGIONS:
 SMS_RATE_LIMIT = env_int("SMS_RATE_LIMIT", 10)
 SMS_RATE_WINDOW_S = env_int("SMS_RATE_WINDOW_S", 10 * 60)
 
+# Outgoing e-mail (Django's mail settings): alert notifications on e-mail channels.
+EMAIL_BACKEND = (
+    os.environ.get("EMAIL_BACKEND", "").strip() or "django.core.mail.backends.smtp.EmailBackend"
+)
+EMAIL_HOST = os.environ.get("EMAIL_HOST", "").strip() or "localhost"
+EMAIL_PORT = env_int("EMAIL_PORT", 25)
+EMAIL_HOST_USER = os.environ.get("EMAIL_HOST_USER", "")
+EMAIL_HOST_PASSWORD = os.environ.get("EMAIL_HOST_PASSWORD", "")
+EMAIL_USE_TLS = env_bool("EMAIL_USE_TLS", False)  # STARTTLS, usually on port 587
+EMAIL_USE_SSL = env_bool("EMAIL_USE_SSL", False)  # TLS from the start, usually on port 465
+if EMAIL_USE_TLS and EMAIL_USE_SSL:
+    raise ValueError("EMAIL_USE_TLS and EMAIL_USE_SSL are exclusive: set one (587: TLS, 465: SSL)")
+EMAIL_TIMEOUT = env_int("EMAIL_TIMEOUT", 20)
+DEFAULT_FROM_EMAIL = (
+    os.environ.get("DEFAULT_FROM_EMAIL", "").strip() or "Shoreside <shoreside@localhost>"
+)
+
+# Alert notifications (alerts.notify, alerts.services.notifications; docs/alerts.md).
+# Seconds a webhook or the HTTP SMS gateway has to answer before the try counts as failed.
+ALERTS_HTTP_TIMEOUT_S = env_int("ALERTS_HTTP_TIMEOUT_S", 10)
+# SMS channels go out through the shore's own GSM modem (a pyserial URL: /dev/ttyUSB2,
+# socket://host:port) or through an HTTP SMS gateway (a JSON POST with a bearer token).
+ALERTS_SMS_MODEM_URL = os.environ.get("ALERTS_SMS_MODEM_URL", "").strip()
+ALERTS_SMS_GATEWAY_URL = os.environ.get("ALERTS_SMS_GATEWAY_URL", "").strip()
+ALERTS_SMS_GATEWAY_TOKEN = os.environ.get("ALERTS_SMS_GATEWAY_TOKEN", "").strip()
+if ALERTS_SMS_MODEM_URL and ALERTS_SMS_GATEWAY_URL:
+    raise ValueError("set ALERTS_SMS_MODEM_URL or ALERTS_SMS_GATEWAY_URL, not both")
+# More than this many notifications for one e-mail or SMS channel and one event due at once
+# are sent as one summary (twenty boats going overdue when the uplink drops); 0 = never.
+ALERTS_NOTIFY_FLOOD = env_int("ALERTS_NOTIFY_FLOOD", 3)
+# Tries before a notification that keeps failing temporarily is given up (backoff between).
+ALERTS_NOTIFY_MAX_ATTEMPTS = env_int("ALERTS_NOTIFY_MAX_ATTEMPTS", 8)
+if ALERTS_NOTIFY_FLOOD < 0 or ALERTS_NOTIFY_MAX_ATTEMPTS < 1 or ALERTS_HTTP_TIMEOUT_S < 1:
+    raise ValueError(
+        "ALERTS_NOTIFY_FLOOD must be 0 or more, ALERTS_NOTIFY_MAX_ATTEMPTS and "
+        "ALERTS_HTTP_TIMEOUT_S 1 or more"
+    )
+
 # The cache holds the API throttles' and the failed logins' counters. `locmem` counts in each
 # process alone, so under N gunicorn workers a limit is up to N times looser; `file` (in the
 # data dir) is shared by the workers of one machine; `database` by several machines (run
