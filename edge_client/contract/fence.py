@@ -188,14 +188,14 @@ def _polygon(value: Any, *, autopilot: bool) -> list[list[float]]:
     for i in range(len(ints)):
         if ints[i] == ints[i - 1]:
             raise FenceError(f"vertex {i + 1 if i else len(ints)} repeats the vertex before it")
-    close = points[-1][1] + _wrap(points[0][1] - points[-1][1]) - points[0][1]
-    if abs(close) > 1e-6:
-        raise FenceError("a polygon around a pole is not supported; draw it as two")
     if any(
         abs(abs(_wrap(b[1] - a[1])) - 180.0) < 1e-9
         for a, b in zip(points, points[1:] + points[:1], strict=True)
     ):
         raise FenceError("an edge spanning 180° of longitude is ambiguous; add a vertex on it")
+    close = points[-1][1] + _wrap(points[0][1] - points[-1][1]) - points[0][1]
+    if abs(close) > 1e-6:
+        raise FenceError("a polygon around a pole is not supported; draw it as two")
     if why := _simple(ints):
         raise FenceError(f"the polygon {why}")
     if autopilot and crosses_antimeridian(vertices):
