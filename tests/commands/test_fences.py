@@ -180,3 +180,11 @@ def test_the_command_form_sends_the_vessels_fence_set(admin_ui: Client, vessel_a
     assert response.status_code == 302
     command = Command.objects.get()
     assert [f["id"] for f in command.params["fences"]] == [harbour.pk]
+
+
+def test_the_command_list_names_the_fences_sent(admin_ui: Client, vessel_a: Vessel) -> None:
+    make_fence("Harbour", vessel_a)
+    make_fence("Rock", None, geometry=ROCK, radius_m=150, inclusion=False)
+    fence_send(fence=Fence.objects.get(name="Harbour"))
+    page = admin_ui.get("/admin/commands/command/").content.decode()
+    assert "2 fence(s): Harbour, Rock" in page

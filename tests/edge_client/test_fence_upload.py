@@ -15,7 +15,12 @@ from edge_client.contract.geo import offset
 from edge_client.contract.mavcmd import MavCmd
 from edge_client.executor import Command, Executor
 from edge_client.fence_upload import build_fence_items, readback_mismatch, upload_fence
-from edge_client.mission import MAV_MISSION_TYPE_FENCE, MissionItem
+from edge_client.mission import (
+    MAV_MISSION_TYPE_FENCE,
+    MissionDownload,
+    MissionItem,
+    MissionUpload,
+)
 from tests.edge_client.helpers import wait_until
 
 START = (-31.98, 115.82)  # the simulator's boat
@@ -72,6 +77,18 @@ def test_the_read_back_must_match_vertex_for_vertex():
     assert "holds 4 fence items, 5 were sent" in readback_mismatch(sent, sent[:4])
     bigger = [*sent[:4], MissionItem(**{**sent[4].__dict__, "param1": 41.0})]
     assert "param1 40.25 was read back as 41" in readback_mismatch(sent, bigger)
+
+
+def test_a_fence_exchange_answers_only_fence_messages():
+    up = MissionUpload(build_fence_items(FENCES), mission_type=MAV_MISSION_TYPE_FENCE)
+    up.start(0.0)
+    assert up.handle("MISSION_REQUEST_INT", {"seq": 0, "mission_type": 0}, 0.1) == []
+    assert (
+        up.handle("MISSION_REQUEST_INT", {"seq": 0, "mission_type": 1}, 0.1)[0].fields["seq"] == 0
+    )
+    down = MissionDownload(mission_type=MAV_MISSION_TYPE_FENCE)
+    down.start(0.0)
+    assert down.handle("MISSION_COUNT", {"count": 3}, 0.1) == []  # MAVLink 1: a mission's
 
 
 def test_the_boat_checks_a_fence_command_with_the_contracts_rules():
