@@ -50,6 +50,9 @@ EKF_CONST_POS_MODE = 128
 GPS_FIX_TYPE_3D_FIX = 3
 MAV_SYS_STATUS_SENSOR_GPS = 0x20
 MAV_SYS_STATUS_AHRS = 0x200000
+# ArduPilot sends FENCE_STATUS only while its fence is on: one older than this means it was
+# switched off, and the fixes stop carrying the fence readings rather than repeat the last.
+FENCE_STATUS_FRESH_S = 10.0
 
 
 @dataclass
@@ -86,6 +89,7 @@ class VehicleState:
     # breach_count when the last fix was taken: a breach that began and ended between two
     # fixes (the boat turned back at once) still shows in the next one.
     fence_breach_count_in_fix: int = 0
+    fence_status_at: float | None = None  # time.monotonic() of the last FENCE_STATUS
     last_heartbeat: float | None = None  # time.monotonic()
     position_at: float | None = None  # time.monotonic() of the last GLOBAL_POSITION_INT fix
     was_silent: bool = False
@@ -207,6 +211,7 @@ class VehicleState:
         if breached and not self.fence_breached:
             log.warning("autopilot reports a fence breach (%d so far)", msg.breach_count)
         self.fence_breached, self.fence_breach_count = breached, msg.breach_count
+        self.fence_status_at = time.monotonic()
 
     def on_mission_current(self, msg: Any) -> None:
         self.mission_seq = msg.seq
@@ -298,7 +303,8 @@ class VehicleState:
                 readings["waypoint"], readings["waypoints"] = number, self.waypoints.count
         if self.custom_mode is not None:
             readings["mode_number"] = self.custom_mode
-        if self.fence_breached is not None:
+        heard = self.fence_status_at
+        if heard is not None and time.monotonic() - heard <= FENCE_STATUS_FRESH_S:
             count = self.fence_breach_count
             # count < the last one: the autopilot rebooted and counts from 0 again.
             latched = self.fence_breached or count > self.fence_breach_count_in_fix

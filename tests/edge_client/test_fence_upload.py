@@ -4,7 +4,9 @@ reported by the autopilot and acted on)."""
 
 from __future__ import annotations
 
+import time
 import uuid
+from types import SimpleNamespace
 
 import pytest
 
@@ -21,6 +23,7 @@ from edge_client.mission import (
     MissionItem,
     MissionUpload,
 )
+from edge_client.vehicle import FENCE_STATUS_FRESH_S, VehicleState
 from tests.edge_client.helpers import wait_until
 
 START = (-31.98, 115.82)  # the simulator's boat
@@ -230,3 +233,23 @@ def test_rovers_default_fence_type_would_add_a_circle_around_home(make_sim, make
     assert link.param_set("FENCE_TYPE", 4, 2) == 4
     wait_until(lambda: link.state.fence_breached is False, 5, "no fence, no breach")
     assert link.param_set("NO_SUCH_PARAM", 1, 2) is None
+
+
+def test_the_fixes_latch_a_short_breach_and_drop_the_fence_readings_once_it_is_off():
+    state = VehicleState()
+    state.lat, state.lon, state.position_at = *START, time.monotonic()
+    assert FENCE_BREACHED not in state.fix(wall_now=1.8e9)["readings"]  # no fence on
+    state.on_fence_status(SimpleNamespace(breach_status=0, breach_count=0))
+    assert state.fix(wall_now=1.8e9)["readings"][FENCE_BREACHED] == 0
+    # Out and back in between two fixes: the next fix still says so, once.
+    state.on_fence_status(SimpleNamespace(breach_status=1, breach_count=1))
+    state.on_fence_status(SimpleNamespace(breach_status=0, breach_count=1))
+    readings = state.fix(wall_now=1.8e9 + 1)["readings"]
+    assert (readings[FENCE_BREACHED], readings[FENCE_BREACH_COUNT]) == (1, 1)
+    assert state.fix(wall_now=1.8e9 + 2)["readings"][FENCE_BREACHED] == 0
+    # The autopilot rebooted (its count starts again): no breach is made up.
+    state.on_fence_status(SimpleNamespace(breach_status=0, breach_count=0))
+    assert state.fix(wall_now=1.8e9 + 3)["readings"][FENCE_BREACHED] == 0
+    # Switched off: ArduPilot stops sending FENCE_STATUS, and the fixes stop repeating it.
+    state.fence_status_at = time.monotonic() - FENCE_STATUS_FRESH_S - 1
+    assert FENCE_BREACHED not in state.fix(wall_now=1.8e9 + 4)["readings"]
