@@ -145,10 +145,16 @@ def _simple(points: list[tuple[int, int]]) -> str:
         if _folds(points[k - 1], points[k], points[(k + 1) % n]):
             return f"folds back on itself at vertex {k + 1}"
     edges = [(points[i], points[(i + 1) % n]) for i in range(n)]
+    # Each edge's bounding box: most pairs are told apart by it, without the exact test.
+    boxes = [(min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1])) for a, b in edges]
     for i in range(n):
+        lat0, lat1, lon0, lon1 = boxes[i]
         for j in range(i + 2, n):
             if i == 0 and j == n - 1:
                 continue  # neighbours: they share a vertex (folds are checked above)
+            box = boxes[j]
+            if box[0] > lat1 or box[1] < lat0 or box[2] > lon1 or box[3] < lon0:
+                continue
             if _touch(*edges[i], *edges[j]):
                 return f"crosses itself (edge {i + 1}-{i + 2} meets edge {j + 1}-{(j + 1) % n + 1})"
     area2 = sum(
