@@ -176,6 +176,10 @@ class CommandAdmin(admin.ModelAdmin):
 
     @admin.display(description="params")
     def params_summary(self, command: Command) -> str:
+        if isinstance(command.params.get("fences"), list):  # the fence set: by name
+            fences = command.params["fences"]
+            names = ", ".join(str(f.get("name") or "?") for f in fences if isinstance(f, dict))
+            return f"{len(fences)} fence(s): {names}"[:80]
         text = ", ".join(f"{k}={v}" for k, v in command.params.items() if k != "items")
         if "items" in command.params:
             text = f"{len(command.params['items'])} waypoints" + (f", {text}" if text else "")

@@ -14,6 +14,7 @@ from typing import Any
 
 from commands.errors import CatalogError
 from edge_client.contract import catalog as shared
+from edge_client.contract import fence as fences
 from edge_client.contract.catalog import MISSION_ENDS, MISSION_MAX_ITEMS, MISSION_MAX_MAVLINK_ITEMS
 from edge_client.contract.geo import distance_m
 from edge_client.contract.kinds import MAVLINK, ROVER_MODES, WAVE_GLIDER
@@ -41,7 +42,7 @@ class Param:
     """One parameter: a name, a converter that validates and normalises, and its text help."""
 
     name: str
-    kind: str  # "float", "int", "choice", "bool", "indices", "items"
+    kind: str  # "float", "int", "choice", "bool", "indices", "items", "fences"
     help: str
     minimum: float | None = None
     maximum: float | None = None
@@ -118,6 +119,13 @@ class Param:
             )
         return [_clean_mission_item(i, item) for i, item in enumerate(value)]
 
+    def _clean_fences(self, value: Any) -> list[dict[str, Any]]:
+        # The contract's rules, which the boat checks by too (edge_client.contract.fence).
+        try:
+            return fences.clean_fences(value, autopilot=True)
+        except fences.FenceError as exc:
+            raise CatalogError(str(exc), field=self.name) from None
+
 
 _CLEANERS: dict[str, Callable[[Param, Any], Any]] = {
     "float": Param._clean_float,
@@ -126,6 +134,7 @@ _CLEANERS: dict[str, Callable[[Param, Any], Any]] = {
     "bool": Param._clean_bool,
     "indices": Param._clean_indices,
     "items": Param._clean_items,
+    "fences": Param._clean_fences,
 }
 
 
@@ -273,6 +282,13 @@ KINDS: dict[str, CommandKind] = {
                 choices=MISSION_ENDS,
                 required=False,
                 default=None,
+            ),
+        ),
+        _boat_kind(
+            "fence",
+            "Load the geofence",
+            Param(
+                "fences", "fences", "the vessel's fences [{id, name, inclusion, polygon|circle}]"
             ),
         ),
         CommandKind(

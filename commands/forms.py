@@ -13,7 +13,7 @@ from django import forms
 from commands import catalog
 from commands.errors import CatalogError, CommandError
 from commands.models import Command
-from commands.services import command_validate
+from commands.services import command_validate, fence_set_params
 from vessels.models import Mission, Vessel
 
 
@@ -70,8 +70,9 @@ class CommandForm(forms.ModelForm):
         for kind in catalog.KINDS.values():
             names = []
             for param in kind.params:
-                # A mission's items and end come from the chosen Mission (as_params).
-                if param.kind == "items" or (
+                # A mission's items and end come from the chosen Mission (as_params), a
+                # fence set from the vessel's fences (fence_set_params).
+                if param.kind in ("items", "fences") or (
                     kind.name == "mission" and param.name in {"loop", "end"}
                 ):
                     continue
@@ -82,7 +83,9 @@ class CommandForm(forms.ModelForm):
             self.param_fields[kind.name] = names
         self.fields["mission"].widget.attrs["data-kind"] = "mission"
 
-    def _params(self, kind: catalog.CommandKind) -> dict[str, Any]:
+    def _params(self, kind: catalog.CommandKind, vessel: Vessel) -> dict[str, Any]:
+        if kind.name == "fence" and vessel.kind in kind.vessel_kinds:
+            return fence_set_params(vessel=vessel)
         params: dict[str, Any] = {}
         for param in kind.params:
             if kind.name == "mission":
@@ -116,7 +119,7 @@ class CommandForm(forms.ModelForm):
             valid, _expires_at = command_validate(
                 vessel=vessel,
                 kind=kind_name,
-                params=self._params(kind),
+                params=self._params(kind, vessel),
                 expires_at=cleaned.get("expires_at"),
             )
         except CommandError as exc:

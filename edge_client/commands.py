@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
+from edge_client.contract import fence
 from edge_client.contract.catalog import KIND_PARAMS, MISSION_ENDS, MISSION_MAX_ITEMS, RANGES
 from edge_client.contract.kinds import ROVER_MODES
 
@@ -113,4 +114,9 @@ def validate(kind: str, params: dict[str, Any]) -> dict[str, Any]:
         return {"mode": mode.upper()}
     if kind == "mission":
         return _mission(params)
+    if kind == "fence":
+        try:
+            return {"fences": fence.clean_fences(params.get("fences"), autopilot=True)}
+        except fence.FenceError as exc:
+            raise CommandError(str(exc)) from None
     return {}

@@ -17,9 +17,10 @@ Kind → action (docs/edge-client.md#commands for the Rover modes):
 ``mission`` upload (home as item 0, :func:`edge_client.mission.build_mission`) then
 MISSION_SET_CURRENT 1 and AUTO; by its ``end``: ``stop`` is done when Rover reports the last
 waypoint reached (after its hold), ``return_home`` when the final NAV_RETURN_TO_LAUNCH has
-brought it home (as ``return_home`` sees it, but in AUTO), ``loop`` once running. Commands
-that make the boat move arm it first when it is disarmed (``arm_before_move``), waiting out
-pre-arm checks.
+brought it home (as ``return_home`` sees it, but in AUTO), ``loop`` once running;
+``fence`` loads the vessel's fence set into the autopilot, reads it back and switches it on
+(:mod:`edge_client.fence_upload`), replacing no running command. Commands that make the boat
+move arm it first when it is disarmed (``arm_before_move``), waiting out pre-arm checks.
 A command polled before the autopilot's first HEARTBEAT (the Pi and the server can be quicker
 than the autopilot after a power-up) waits for it, and a mode that needs a position is
 asked for again while the autopilot is still getting one and until its EKF failsafe clears
@@ -47,6 +48,7 @@ from edge_client.contract.backoff import doubled
 from edge_client.contract.catalog import NAVIGATION_KINDS
 from edge_client.contract.kinds import ROVER_POSITION_MODES
 from edge_client.contract.status import Status
+from edge_client.fence_upload import upload_fence
 from edge_client.mavlink_link import HOME_POSITION_ID, LinkDown, MavlinkLink
 from edge_client.mission import (
     FIRST_ITEM,
@@ -454,6 +456,11 @@ class Executor:
             raise CommandError(detail)
         self._ack(command, ACKNOWLEDGED, detail)
         self._ack(command, DONE, detail)
+
+    def _do_fence(self, command: Command, p: dict[str, Any]) -> None:
+        self.link.target()
+        accepted = lambda detail: self._ack(command, ACKNOWLEDGED, detail)  # noqa: E731
+        self._ack(command, DONE, upload_fence(self.link, p["fences"], accepted))
 
     def _do_mission(self, command: Command, p: dict[str, Any]) -> None:
         state = self.link.state

@@ -72,6 +72,8 @@ STREAMS = {
     # Position readiness after boot (VehicleState.position_ready).
     "EKF_STATUS_REPORT": 4,
     "GPS_RAW_INT": 4,
+    # Breaches of the fence the autopilot enforces (ArduPilot sends it while a fence is on).
+    "FENCE_STATUS": 4,
 }
 # REQUEST_DATA_STREAM groups for firmware without SET_MESSAGE_INTERVAL (MAV_DATA_STREAM_*).
 MAV_DATA_STREAM_EXTENDED_STATUS = 2
@@ -88,10 +90,15 @@ MAILBOX_TYPES = frozenset(
         "MISSION_COUNT",
         "MISSION_ITEM_INT",
         "MISSION_ITEM",
+        "PARAM_VALUE",
     }
 )
 COMMAND_ACK_TIMEOUT_S = 1.0
 COMMAND_RETRIES = 2
+# PARAM_SET is answered by the PARAM_VALUE it set (mavlink.io parameter protocol): the value
+# is sent as a float whatever its type (ArduPilot, MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT).
+PARAM_TIMEOUT_S = 1.0
+PARAM_RETRIES = 3
 
 
 class LinkDown(Exception):
@@ -403,35 +410,54 @@ class MavlinkLink:
         system, component = self.target()
         self._send("mission_set_current", system, component, seq)
 
-    def _send_out(self, out: Out) -> None:
+    def _send_out(self, out: Out, mission_type: int = 0) -> None:
         system, component = self.target()
         self._send(
             out.type.lower(),
             target_system=system,
             target_component=component,
-            mission_type=0,
+            mission_type=mission_type,
             **out.fields,
         )
 
     def _run_machine(self, machine: MissionUpload | MissionDownload) -> None:
         self._drain()
         for out in machine.start(time.monotonic()):
-            self._send_out(out)
+            self._send_out(out, machine.mission_type)
         while not machine.done:
             msg = self._next_message(min(0.05, machine.deadline - time.monotonic()))
             now = time.monotonic()
             outs = machine.handle(msg.get_type(), msg.to_dict(), now) if msg is not None else []
             outs += machine.poll(now)
             for out in outs:
-                self._send_out(out)
+                self._send_out(out, machine.mission_type)
 
-    def upload_mission(self, items: list[MissionItem]) -> MissionUpload:
-        """Run a mission upload to completion; the returned machine says ok/result/error."""
-        machine = MissionUpload(items)
+    def upload_mission(self, items: list[MissionItem], mission_type: int = 0) -> MissionUpload:
+        """Run a mission upload to completion; the returned machine says ok/result/error.
+        ``mission_type`` MAV_MISSION_TYPE_FENCE uploads the geofence the same way."""
+        machine = MissionUpload(items, mission_type=mission_type)
         self._run_machine(machine)
         return machine
 
-    def download_mission(self) -> MissionDownload:
-        machine = MissionDownload()
+    def download_mission(self, mission_type: int = 0) -> MissionDownload:
+        machine = MissionDownload(mission_type=mission_type)
         self._run_machine(machine)
         return machine
+
+    def param_set(self, name: str, value: float, param_type: int) -> float | None:
+        """PARAM_SET, re-sent until the autopilot answers with that parameter's PARAM_VALUE;
+        returns the value it now holds (None: no answer, or no such parameter: ArduPilot
+        ignores a PARAM_SET of a name it does not know)."""
+        system, component = self.target()
+        self._drain()
+        for _ in range(PARAM_RETRIES + 1):
+            self._send("param_set", system, component, name.encode(), float(value), param_type)
+            deadline = time.monotonic() + PARAM_TIMEOUT_S
+            while (remaining := deadline - time.monotonic()) > 0:
+                msg = self._next_message(remaining)
+                if msg is not None and msg.get_type() == "PARAM_VALUE":
+                    said = msg.param_id
+                    said = said if isinstance(said, str) else said.decode("ascii", "replace")
+                    if said.rstrip("\x00") == name:
+                        return float(msg.param_value)
+        return None

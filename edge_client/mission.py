@@ -35,6 +35,7 @@ MAV_FRAME_GLOBAL = 0
 MAV_FRAME_GLOBAL_RELATIVE_ALT = 3
 SPEED_TYPE_GROUNDSPEED = 1
 MAV_MISSION_TYPE_MISSION = 0
+MAV_MISSION_TYPE_FENCE = 1  # the same protocol carries the geofence (edge_client.fence_upload)
 MAV_MISSION_ACCEPTED = 0
 MAV_MISSION_OPERATION_CANCELLED = 15
 
@@ -252,8 +253,10 @@ def item_from_fields(msg_type: str, f: dict[str, Any]) -> MissionItem:
     )
 
 
-def _is_mission(f: dict[str, Any]) -> bool:
-    return f.get("mission_type", MAV_MISSION_TYPE_MISSION) == MAV_MISSION_TYPE_MISSION
+def _is_ours(f: dict[str, Any], mission_type: int) -> bool:
+    """Whether a message belongs to an exchange of ``mission_type`` (MAVLink 1 has no field:
+    a mission's)."""
+    return f.get("mission_type", MAV_MISSION_TYPE_MISSION) == mission_type
 
 
 class MissionUpload:
@@ -269,8 +272,15 @@ class MissionUpload:
        up, telling the autopilot with MISSION_ACK(MAV_MISSION_OPERATION_CANCELLED).
     """
 
-    def __init__(self, items: list[MissionItem], *, timeout_s: float = EXCHANGE_TIMEOUT_S) -> None:
+    def __init__(
+        self,
+        items: list[MissionItem],
+        *,
+        timeout_s: float = EXCHANGE_TIMEOUT_S,
+        mission_type: int = MAV_MISSION_TYPE_MISSION,
+    ) -> None:
         self.items = items
+        self.mission_type = mission_type
         self.timeout_s = timeout_s
         self.done = False
         self.ok = False
@@ -287,7 +297,7 @@ class MissionUpload:
         return self._last
 
     def handle(self, msg_type: str, f: dict[str, Any], now: float) -> list[Out]:
-        if self.done or not _is_mission(f):
+        if self.done or not _is_ours(f, self.mission_type):
             return []
         if msg_type in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
             seq = f["seq"]
@@ -330,7 +340,8 @@ class MissionDownload:
     end. Items that are not the one asked for (late duplicates) are ignored.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, *, mission_type: int = MAV_MISSION_TYPE_MISSION) -> None:
+        self.mission_type = mission_type
         self.done = False
         self.ok = False
         self.error = ""
@@ -344,7 +355,7 @@ class MissionDownload:
         return self._send([Out("MISSION_REQUEST_LIST")], now, EXCHANGE_TIMEOUT_S)
 
     def handle(self, msg_type: str, f: dict[str, Any], now: float) -> list[Out]:
-        if self.done or not _is_mission(f):
+        if self.done or not _is_ours(f, self.mission_type):
             return []
         if msg_type == "MISSION_COUNT" and self.count is None:
             self.count = f["count"]

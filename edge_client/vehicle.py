@@ -11,7 +11,8 @@ MAV_MODE_FLAG_SAFETY_ARMED = 128, custom_mode = Rover mode number), GLOBAL_POSIT
 (lat/lon degE7, vx/vy cm/s, hdg cdeg, 65535 = unknown), SYS_STATUS (voltage_battery mV,
 65535 = unknown; onboard_control_sensors_* bits), MISSION_CURRENT, MISSION_ITEM_REACHED,
 HOME_POSITION, GPS_GLOBAL_ORIGIN, SYSTEM_TIME, STATUSTEXT (pre-arm and mode-change failure
-reasons), GPS_RAW_INT (fix_type), EKF_STATUS_REPORT (flags, ardupilotmega.xml EKF_STATUS_FLAGS).
+reasons), GPS_RAW_INT (fix_type), EKF_STATUS_REPORT (flags, ardupilotmega.xml EKF_STATUS_FLAGS),
+FENCE_STATUS (breach_status, breach_count: the fence the autopilot enforces).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from datetime import UTC, datetime
 from typing import Any
 
 from edge_client.config import ReadingSource
+from edge_client.contract.fix import FENCE_BREACH_COUNT, FENCE_BREACHED
 from edge_client.contract.geo import distance_m
 from edge_client.contract.kinds import ROVER_MODE_NAMES
 from edge_client.mission import WaypointNumbers
@@ -48,6 +50,9 @@ EKF_CONST_POS_MODE = 128
 GPS_FIX_TYPE_3D_FIX = 3
 MAV_SYS_STATUS_SENSOR_GPS = 0x20
 MAV_SYS_STATUS_AHRS = 0x200000
+# ArduPilot sends FENCE_STATUS only while its fence is on: one older than this means it was
+# switched off, and the fixes stop carrying the fence readings rather than repeat the last.
+FENCE_STATUS_FRESH_S = 10.0
 
 
 @dataclass
@@ -78,6 +83,13 @@ class VehicleState:
     sensors_health: tuple[int, int] | None = None  # SYS_STATUS (enabled, health) bits
     origin: tuple[float, float] | None = None  # GPS_GLOBAL_ORIGIN: the EKF origin is set
     ekf_failsafe: bool = False  # the autopilot said "EKF failsafe" and not yet "… cleared"
+    # FENCE_STATUS: None until the autopilot reports its fence (it does only while one is on).
+    fence_breached: bool | None = None
+    fence_breach_count: int = 0
+    # breach_count when the last fix was taken: a breach that began and ended between two
+    # fixes (the boat turned back at once) still shows in the next one.
+    fence_breach_count_in_fix: int = 0
+    fence_status_at: float | None = None  # time.monotonic() of the last FENCE_STATUS
     last_heartbeat: float | None = None  # time.monotonic()
     position_at: float | None = None  # time.monotonic() of the last GLOBAL_POSITION_INT fix
     was_silent: bool = False
@@ -194,6 +206,13 @@ class VehicleState:
     def on_gps_global_origin(self, msg: Any) -> None:
         self.origin = (msg.latitude / 1e7, msg.longitude / 1e7)
 
+    def on_fence_status(self, msg: Any) -> None:
+        breached = bool(msg.breach_status)
+        if breached and not self.fence_breached:
+            log.warning("autopilot reports a fence breach (%d so far)", msg.breach_count)
+        self.fence_breached, self.fence_breach_count = breached, msg.breach_count
+        self.fence_status_at = time.monotonic()
+
     def on_mission_current(self, msg: Any) -> None:
         self.mission_seq = msg.seq
 
@@ -240,6 +259,7 @@ class VehicleState:
             "EKF_STATUS_REPORT": [self.on_ekf_status_report],
             "GPS_RAW_INT": [self.on_gps_raw_int],
             "GPS_GLOBAL_ORIGIN": [self.on_gps_global_origin],
+            "FENCE_STATUS": [self.on_fence_status],
         }
         for source in readings:
             table.setdefault(source.message, []).append(self.reading_handler(source))
@@ -283,5 +303,13 @@ class VehicleState:
                 readings["waypoint"], readings["waypoints"] = number, self.waypoints.count
         if self.custom_mode is not None:
             readings["mode_number"] = self.custom_mode
+        heard = self.fence_status_at
+        if heard is not None and time.monotonic() - heard <= FENCE_STATUS_FRESH_S:
+            count = self.fence_breach_count
+            # count < the last one: the autopilot rebooted and counts from 0 again.
+            latched = self.fence_breached or count > self.fence_breach_count_in_fix
+            readings[FENCE_BREACHED] = 1 if latched else 0
+            readings[FENCE_BREACH_COUNT] = count
+            self.fence_breach_count_in_fix = count
         fix["readings"] = readings
         return fix

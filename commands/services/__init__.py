@@ -15,6 +15,7 @@ from commands.services.delivery import (
     command_withdraw_queued,
 )
 from commands.services.enqueue import command_enqueue, command_validate, vessel_context
+from commands.services.fences import fence_send, fence_set_for, fence_set_params
 from commands.services.handover import (
     command_complete,
     command_fail_unsent,
@@ -56,6 +57,9 @@ __all__ = [
     "command_reports_record",
     "command_validate",
     "command_withdraw_queued",
+    "fence_send",
+    "fence_set_for",
+    "fence_set_params",
     "mission_send_problems",
     "mission_send",
     "vessel_context",

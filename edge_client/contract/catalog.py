@@ -22,6 +22,9 @@ KIND_PARAMS: dict[str, tuple[str, ...]] = {
     "arm": (),
     "disarm": (),
     "mission": ("mission_id", "items", "loop", "end"),
+    # The whole fence set the autopilot is to hold (edge_client.contract.fence): not a
+    # navigation kind, so it replaces no move_to or mission, here or on the boat.
+    "fence": ("fences",),
 }
 # Kinds that give the boat a new navigation goal, replacing whatever it was doing.
 NAVIGATION_KINDS = frozenset({"move_to", "hold", "resume", "return_home", "set_mode", "mission"})

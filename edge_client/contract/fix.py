@@ -30,3 +30,19 @@ RANGES: dict[str, tuple[float, float]] = {
 NUMBERS: tuple[str, ...] = tuple(name for name in FIELDS if name in RANGES)
 MAX_READINGS = 64  # name: number pairs in one fix's readings
 MAX_READING_NAME = 50  # characters
+# Readings the boat names itself from its autopilot, beside the sensors its configuration maps
+# (edge_client/vehicle.py): armed 0/1, the Rover mode number, the mission item and the
+# operator's waypoint of waypoints, and the autopilot's fence: breached 0/1 (FENCE_STATUS
+# breach_status, or a breach begun since the previous fix) and its breach_count; only while a
+# fence is on, as ArduPilot reports it then.
+FENCE_BREACHED = "fence_breached"
+FENCE_BREACH_COUNT = "fence_breach_count"
+AUTOPILOT_READINGS: tuple[str, ...] = (
+    "armed",
+    "mode_number",
+    "mission_item",
+    "waypoint",
+    "waypoints",
+    FENCE_BREACHED,
+    FENCE_BREACH_COUNT,
+)

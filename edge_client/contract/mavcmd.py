@@ -1,5 +1,5 @@
-"""The MAV_CMD numbers (MAVLink common.xml) a Shoreside mission is built from and read back,
-and the names MAVLink gives any number of its enums (for messages: "MAV_CMD_NAV_LAND").
+"""The MAV_CMD numbers (MAVLink common.xml) a Shoreside mission or fence is built from and
+read back, and the names MAVLink gives any number of its enums (for messages: "MAV_CMD_NAV_LAND").
 
 The numbers are spelled here rather than taken from pymavlink at import time so that this
 package stays pure (the server's mission-file code and the boat's mission machine import it
@@ -20,6 +20,11 @@ class MavCmd(IntEnum):
     NAV_RETURN_TO_LAUNCH = 20
     DO_JUMP = 177
     DO_CHANGE_SPEED = 178
+    # Geofence items (mission_type FENCE): param1 a polygon's vertex count or a circle's radius.
+    NAV_FENCE_POLYGON_VERTEX_INCLUSION = 5001
+    NAV_FENCE_POLYGON_VERTEX_EXCLUSION = 5002
+    NAV_FENCE_CIRCLE_INCLUSION = 5003
+    NAV_FENCE_CIRCLE_EXCLUSION = 5004
 
 
 def name(enum: str, value: int) -> str | None:

@@ -16,9 +16,11 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
 from edge_client.contract.catalog import MISSION_MAX_MAVLINK_ITEMS  # noqa: E402
+from edge_client.contract.fence import FENCE_MAX_ITEMS  # noqa: E402
 
 mavlink = mavutil.mavlink
 
+MISSION, FENCE = mavlink.MAV_MISSION_TYPE_MISSION, mavlink.MAV_MISSION_TYPE_FENCE
 UPLOAD_RETRY_S = 0.5
 UPLOAD_GIVE_UP_S = 8.0
 GLOBAL_FRAMES = {0, 3, 5, 6, 10, 11}  # MAV_FRAME_GLOBAL*, incl. the deprecated _INT variants
@@ -175,26 +177,36 @@ class MissionProtocol:
         self.nav_loaded, self.arrived_at = False, None
 
     def _on_mission_clear_all(self, conn: Any, msg: Any, now: float) -> None:
-        self.load_mission([])
-        self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
+        kind = getattr(msg, "mission_type", MISSION)
+        if kind == FENCE:
+            self.fence_store([])
+        elif kind == MISSION:
+            self.load_mission([])
+        self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED, kind)
 
-    def _mission_ack(self, conn: Any, code: int) -> None:
-        self._emit(conn, "mission_ack", *self._peer(conn), code)
+    def _mission_ack(self, conn: Any, code: int, kind: int = 0) -> None:
+        self._emit(conn, "mission_ack", *self._peer(conn), code, kind)
 
     # Upload: GCS → vehicle ---------------------------------------------------------------------
 
     def _on_mission_count(self, conn: Any, msg: Any, now: float) -> None:
-        if getattr(msg, "mission_type", 0) != 0:
-            self._mission_ack(conn, mavlink.MAV_MISSION_UNSUPPORTED)
+        # The mission and the geofence (mission_type FENCE, edge_client.sim.fence) share the
+        # protocol, as ArduPilot's MissionItemProtocol does; rally points are not kept.
+        kind = getattr(msg, "mission_type", MISSION)
+        if kind not in (MISSION, FENCE):
+            self._mission_ack(conn, mavlink.MAV_MISSION_UNSUPPORTED, kind)
             return
-        if msg.count > self.max_items:
-            self._mission_ack(conn, mavlink.MAV_MISSION_NO_SPACE)
+        if msg.count > (self.max_items if kind == MISSION else FENCE_MAX_ITEMS):
+            self._mission_ack(conn, mavlink.MAV_MISSION_NO_SPACE, kind)
             return
         if msg.count == 0:
-            self.load_mission([])
-            self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED)
+            if kind == FENCE:
+                self.fence_store([])
+            else:
+                self.load_mission([])
+            self._mission_ack(conn, mavlink.MAV_MISSION_ACCEPTED, kind)
             return
-        self.upload = {"conn": conn, "count": msg.count, "items": [], "started": now}
+        self.upload = {"conn": conn, "count": msg.count, "items": [], "started": now, "type": kind}
         self.uploaded = None
         self._request_next(now)
 
@@ -204,7 +216,7 @@ class MissionProtocol:
         up["asked_at"] = now
         seq = len(up["items"])
         name = "mission_request_int" if self.request_int else "mission_request"
-        self._emit(up["conn"], name, *self._peer(up["conn"]), seq)
+        self._emit(up["conn"], name, *self._peer(up["conn"]), seq, up["type"])
 
     def _upload_timeouts(self, now: float) -> None:
         up = self.upload
@@ -212,7 +224,7 @@ class MissionProtocol:
             return
         if now - up["started"] > UPLOAD_GIVE_UP_S:
             self.upload = None
-            self._mission_ack(up["conn"], mavlink.MAV_MISSION_OPERATION_CANCELLED)
+            self._mission_ack(up["conn"], mavlink.MAV_MISSION_OPERATION_CANCELLED, up["type"])
         elif now - up["asked_at"] > UPLOAD_RETRY_S:
             self._request_next(now)
 
@@ -241,12 +253,13 @@ class MissionProtocol:
             return
         up = self.upload
         done = self.uploaded
+        kind = getattr(msg, "mission_type", MISSION)
         if up is None and done and done["conn"] is conn and msg.seq == done["count"] - 1:
             # The last item again: our MISSION_ACK was lost. Say it again (PX4 does, PR #9547)
             # rather than leave the sender retrying into a cancelled upload.
-            self._mission_ack(conn, done["code"])
+            self._mission_ack(conn, done["code"], done["type"])
             return
-        if up is None or up["conn"] is not conn:
+        if up is None or up["conn"] is not conn or kind != up["type"]:
             return
         if msg.seq != len(up["items"]):
             self._request_next(now)  # a late duplicate or a skipped item: ask for the one we need
@@ -283,11 +296,15 @@ class MissionProtocol:
             self._request_next(now)
             return
         self.upload = None
-        code = mavlink.MAV_MISSION_ACCEPTED if self.reject_mission is None else self.reject_mission
-        self.uploaded = {"conn": conn, "count": up["count"], "code": code}
-        if code == mavlink.MAV_MISSION_ACCEPTED:
-            self.load_mission(up["items"])
-        self._mission_ack(conn, code)
+        if kind == FENCE:
+            code = self.fence_store(up["items"])
+        else:
+            code = self.reject_mission
+            code = mavlink.MAV_MISSION_ACCEPTED if code is None else code
+            if code == mavlink.MAV_MISSION_ACCEPTED:
+                self.load_mission(up["items"])
+        self.uploaded = {"conn": conn, "count": up["count"], "code": code, "type": kind}
+        self._mission_ack(conn, code, kind)
 
     # Download: vehicle → GCS -----------------------------------------------------------------
 
@@ -308,25 +325,28 @@ class MissionProtocol:
         )
         return [home, *self.mission[1:]]
 
+    def _download(self, kind: int) -> list[Item]:
+        if kind == FENCE:
+            return self.fence_for_download()
+        return self._mission_for_download() if kind == MISSION else []
+
     def _on_mission_request_list(self, conn: Any, msg: Any, now: float) -> None:
-        if getattr(msg, "mission_type", 0) != 0:
-            self._emit(conn, "mission_count", *self._peer(conn), 0, msg.mission_type)
-            return
-        self._emit(conn, "mission_count", *self._peer(conn), len(self._mission_for_download()))
+        kind = getattr(msg, "mission_type", MISSION)
+        self._emit(conn, "mission_count", *self._peer(conn), len(self._download(kind)), kind)
 
     def _on_mission_request_int(self, conn: Any, msg: Any, now: float) -> None:
-        self._send_item(conn, msg.seq, as_int=True)
+        self._send_item(conn, msg.seq, getattr(msg, "mission_type", MISSION), as_int=True)
 
     def _on_mission_request(self, conn: Any, msg: Any, now: float) -> None:
-        self._send_item(conn, msg.seq, as_int=False)
+        self._send_item(conn, msg.seq, getattr(msg, "mission_type", MISSION), as_int=False)
 
-    def _send_item(self, conn: Any, seq: int, *, as_int: bool) -> None:
-        items = self._mission_for_download()
+    def _send_item(self, conn: Any, seq: int, kind: int, *, as_int: bool) -> None:
+        items = self._download(kind)
         if not 0 <= seq < len(items):
-            self._mission_ack(conn, mavlink.MAV_MISSION_INVALID_SEQUENCE)
+            self._mission_ack(conn, mavlink.MAV_MISSION_INVALID_SEQUENCE, kind)
             return
         it = items[seq]
-        current = 1 if seq == self.current else 0
+        current = 1 if seq == self.current and kind == MISSION else 0
         # MISSION_ITEM_INT carries degrees * 1e7 as integers; the old MISSION_ITEM, float degrees.
         name, x, y = (
             ("mission_item_int", it.x, it.y) if as_int else ("mission_item", it.x / 1e7, it.y / 1e7)
@@ -334,5 +354,5 @@ class MissionProtocol:
         params = (it.param1, it.param2, it.param3, it.param4)
         self._emit(
             conn, name, *self._peer(conn), it.seq, it.frame, it.command, current, it.autocontinue,
-            *params, x, y, it.z,
+            *params, x, y, it.z, kind,
         )  # fmt: skip

@@ -40,6 +40,8 @@ docs/edge-client.md#commands, mavlink.io common.xml), not like a physics model:
   done (after its hold), MISSION_CURRENT carrying the current navigation item; at the end
   "Mission Complete" and the boat stops, still in AUTO (MIS_DONE_BEHAVE 0). Only when armed.
   ``events`` records arrivals, items done and speed changes on the simulator's own clock.
+- The geofence (:mod:`edge_client.sim.fence`): fence uploads and downloads, FENCE_* parameters,
+  breaches reported (FENCE_STATUS, STATUSTEXT) and acted on (FENCE_ACTION) as Rover does.
 - Missions are kept as AP_Mission keeps them (``stored``, in :mod:`edge_client.sim.mission`
   with the mission protocol): a download hands back what Rover
   would, not simply what was sent.
@@ -69,6 +71,7 @@ from pymavlink import mavutil  # noqa: E402
 from edge_client.contract.geo import bearing_deg, distance_m, offset  # noqa: E402 (pure)
 from edge_client.contract.kinds import ROVER_MODE_NAMES, ROVER_POSITION_MODES  # noqa: E402 (pure)
 from edge_client.sim.clock import ScaledClock, SimClock  # noqa: E402
+from edge_client.sim.fence import FenceSim  # noqa: E402
 from edge_client.sim.mission import (  # noqa: E402 (after MAVLINK20 is chosen)
     FIRST_ITEM,
     MAX_MISSION_ITEMS,
@@ -104,7 +107,7 @@ EKF_FAILSAFE_CLEAR_S = 1.0
 EKF_USING_GPS = "EKF3 IMU0 is using GPS"  # AP_NavEKF3 when it starts fusing GPS
 
 
-class RoverSim(MissionProtocol):
+class RoverSim(FenceSim, MissionProtocol):
     def __init__(
         self,
         endpoints: list[str],
@@ -182,6 +185,7 @@ class RoverSim(MissionProtocol):
             mavlink.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
             mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0,
             mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+            mavlink.MAVLINK_MSG_ID_FENCE_STATUS: 1.0,  # while the fence is on (sim/fence.py)
         }
         self.last_sent: dict[int, float] = {}
         self.upload: dict[str, Any] | None = None  # in-progress upload
@@ -190,6 +194,7 @@ class RoverSim(MissionProtocol):
         self.counts = {"sent": 0, "dropped": 0, "duplicated": 0, "received": 0}
         self._last_step = self.clock.monotonic()
         self._lock = threading.Lock()
+        self._fence_init()
 
     # -- running ------------------------------------------------------------------------------
 
@@ -214,6 +219,7 @@ class RoverSim(MissionProtocol):
             self._ekf_check(now)
             self._physics(now - self._last_step, now)
             self._last_step = now
+            self._fence_check(now)
             self._upload_timeouts(now)
             self._streams(now)
 

@@ -21,6 +21,18 @@ VALID: dict[str, tuple[dict[str, Any], tuple[str, ...]]] = {
     "arm": ({}, (MAVLINK,)),
     "disarm": ({}, (MAVLINK,)),
     "mission": ({"items": [{"lat": -32.0, "lon": 115.7}], "loop": True}, (MAVLINK,)),
+    "fence": (
+        {
+            "fences": [
+                {
+                    "name": "Bay",
+                    "inclusion": True,
+                    "circle": {"lat": -32, "lon": 115.7, "radius_m": 500},
+                }
+            ]
+        },
+        (MAVLINK,),
+    ),
     "fhead": ({"bearing": 230}, (WAVE_GLIDER,)),
     "light": ({"state": "on"}, (WAVE_GLIDER,)),
     "ir": ({"state": "off"}, (WAVE_GLIDER,)),

@@ -162,6 +162,7 @@ PURE = [
     "edge_client/commands.py",
     "edge_client/geo.py",
     "edge_client/mission.py",
+    "edge_client/fence_upload.py",
     *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "edge_client/contract").glob("*.py")),
 ]
 IO = {"django", "rest_framework", "serial", "socket", "requests", "pymavlink", "sqlite3"}
