@@ -15,6 +15,8 @@ from django.db import IntegrityError, transaction
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
+from audit.context import Origin, audit_origin
+from audit.models import ActorKind
 from commands.models import Command
 from edge_client.contract.batch import BatchAnswer
 from sms.errors import InvalidNumber
@@ -65,8 +67,16 @@ def authorised_numbers_replace(
     The shore admin is where numbers are managed: an entry missing from the list may no longer
     address the vessel (its entry is kept, so the log still names its holder). An unusable
     entry is skipped and reported; the others are applied. Entries that did not change are not
-    written.
+    written. Its audit entries (a glider's own log) name the shore as who changed them.
     """
+    with audit_origin(SHORE_ORIGIN):
+        return _numbers_replace(vessel, numbers)
+
+
+SHORE_ORIGIN = Origin(actor="shore", actor_kind=ActorKind.SYSTEM, via="shore")
+
+
+def _numbers_replace(vessel: Vessel, numbers: Sequence[Mapping[str, object]]) -> NumbersReplaced:
     added = updated = 0
     rejected: list[str] = []
     kept: set[str] = set()
