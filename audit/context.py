@@ -24,6 +24,7 @@ out, so nothing leaks into the next request a worker serves.
 
 from __future__ import annotations
 
+import functools
 import getpass
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -82,8 +83,21 @@ def cli_origin() -> Origin:
 
 
 class AuditedCommand(BaseCommand):
-    """A management command whose services' audit entries name the shell user, via ``cli``."""
+    """A management command whose services' audit entries name the shell user, via ``cli``.
 
-    def execute(self, *args: Any, **options: Any) -> str | None:
-        with audit_origin(cli_origin()):
-            return super().execute(*args, **options)
+    Subclasses write ``handle()`` as usual; it runs inside the origin (wrapped here once per
+    class, so ``call_command`` and ``manage.py`` alike get it).
+    """
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        handle = cls.__dict__.get("handle")
+        if handle is None:
+            return
+
+        @functools.wraps(handle)
+        def audited(self: BaseCommand, *args: Any, **options: Any) -> Any:
+            with audit_origin(cli_origin()):
+                return handle(self, *args, **options)
+
+        cls.handle = audited
