@@ -8,6 +8,7 @@ from above it.
 from __future__ import annotations
 
 import datetime as dt
+from typing import Any
 
 from django.db.models import Q, QuerySet
 from django.utils import timezone
@@ -34,6 +35,28 @@ class AuditCursor(CursorPagination):
     page_size_query_param = "page_size"
     max_page_size = 1000
 
+    def get_page_size(self, request: Request) -> int:
+        # DRF ignores a page size it cannot read; here it is bad input, as the schema says.
+        raw = request.query_params.get(self.page_size_query_param)
+        if raw is None:
+            return self.page_size
+        try:
+            size = int(raw)
+        except ValueError:
+            size = 0
+        if not 1 <= size <= self.max_page_size:
+            raise ValidationError(
+                {"page_size": [f"{raw!r} is not a whole number from 1 to {self.max_page_size}"]}
+            )
+        return size
+
+    def get_schema_operation_parameters(self, view: Any) -> list[dict[str, Any]]:
+        parameters = super().get_schema_operation_parameters(view)
+        for parameter in parameters:
+            if parameter["name"] == self.page_size_query_param:
+                parameter["schema"] |= {"minimum": 1, "maximum": self.max_page_size}
+        return parameters
+
     def decode_cursor(self, request: Request) -> Cursor | None:
         # DRF answers a cursor it cannot read with 404; this list's URL names nothing that
         # could be missing, so it is bad input (400), as the schema says.
@@ -44,9 +67,10 @@ class AuditCursor(CursorPagination):
 
 
 def when_param(request: Request, name: str) -> dt.datetime | None:
-    """An ISO 8601 date-time query parameter; without an offset, it is UTC."""
+    """An ISO 8601 date-time query parameter; without an offset, it is UTC. Given empty, it
+    is no date-time (400), as the schema says."""
     raw = request.query_params.get(name)
-    if not raw:
+    if raw is None:
         return None
     try:
         value = parse_datetime(raw)
@@ -64,7 +88,7 @@ def entries_matching(request: Request) -> QuerySet[AuditEntry]:
     for name in ("vessel", "actor", "via", "subject_type", "subject_id"):
         if value := query.get(name):
             entries = entries.filter(**{name: value})
-    if kind := query.get("actor_kind"):
+    if (kind := query.get("actor_kind")) is not None:
         if kind not in ActorKind.values:
             choices = ", ".join(ActorKind.values)
             raise ValidationError({"actor_kind": [f"{kind!r} is not one of {choices}"]})

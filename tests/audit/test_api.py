@@ -90,9 +90,14 @@ def test_it_filters(auditor: APIClient, log: list, query: str, expected: list) -
     ("query", "field"),
     [
         ("since=yesterday", "since"),
+        ("since=", "since"),
+        ("actor_kind=", "actor_kind"),
         ("until=2026-13-01T00:00:00Z", "until"),
         ("actor_kind=robot", "actor_kind"),
         ("cursor=not-a-cursor", "cursor"),
+        ("page_size=null", "page_size"),
+        ("page_size=0", "page_size"),
+        ("page_size=1001", "page_size"),
     ],
 )
 def test_bad_input_is_a_400_naming_the_field(
