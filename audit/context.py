@@ -26,8 +26,7 @@ from __future__ import annotations
 
 import functools
 import getpass
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any
@@ -52,14 +51,23 @@ _current: ContextVar[Origin | Callable[[], Origin] | None] = ContextVar(
 )
 
 
-@contextmanager
-def audit_origin(origin: Origin | Callable[[], Origin]) -> Iterator[None]:
-    """Entries written inside the block take their blanks from ``origin``."""
-    token = _current.set(origin)
-    try:
-        yield
-    finally:
-        _current.reset(token)
+class audit_origin:  # noqa: N801 (used as a function: ``with audit_origin(...):``)
+    """Entries written inside the block take their blanks from ``origin``.
+
+    A class, not @contextmanager: every request enters one, and this is the cheaper of the
+    two (no generator); what remains is the ContextVar's own set and reset.
+    """
+
+    __slots__ = ("origin", "token")
+
+    def __init__(self, origin: Origin | Callable[[], Origin]) -> None:
+        self.origin = origin
+
+    def __enter__(self) -> None:
+        self.token = _current.set(self.origin)
+
+    def __exit__(self, *exc: object) -> None:
+        _current.reset(self.token)
 
 
 def current_origin() -> Origin:
