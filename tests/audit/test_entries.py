@@ -353,6 +353,37 @@ def test_a_forged_forwarded_for_is_not_believed(operator_user: User, settings: A
     assert only("login.failed").ip == "203.0.113.66"
 
 
+# --- on a glider: what its shore sends ----------------------------------------------------------
+
+
+def test_on_a_glider_the_shores_commands_and_numbers_name_the_shore(
+    glider: Vessel, tmp_path: Any
+) -> None:
+    from sms.bridge.shore import ShoreLink
+    from sms.bridge.shore_config import ShoreConfig
+    from sms.services import authorised_numbers_replace
+    from tests.sms.bridge.test_shore_units import ListingShore
+
+    authorised_numbers_replace(
+        vessel=glider,
+        numbers=[{"number": SKIPPER, "name": "Ana", "role": "control", "active": True}],
+    )
+    shore = ListingShore()
+    shore.open = [{"uid": "6f1c2d3e-0000-4000-8000-000000000001", "kind": "light",
+                   "params": {"state": "on"}}]  # fmt: skip
+    config = ShoreConfig(url="http://127.0.0.1:9", key="k", outbox_path=str(tmp_path / "o.db"))
+    link = ShoreLink(vessel=glider, config=config, transport=shore)
+    try:
+        assert link.do_one_poll_commands() is True
+    finally:
+        link.close()
+    entries = AuditEntry.objects.order_by("pk").values_list("action", "actor", "actor_kind", "via")
+    assert list(entries) == [
+        ("number.added", "shore", "system", "shore"),
+        ("command.queued", "shore", "system", "api"),
+    ]
+
+
 # --- the boat's own requests are not audit events -----------------------------------------------
 
 
