@@ -23,6 +23,8 @@ from sms.errors import InvalidNumber
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SmsMessage
 from sms.services._common import DETAIL_MAX, TEXT_STORE_MAX, _save_checked
 from sms.services.numbers import (
+    _as_audited,
+    _audit_number,
     authorised_number_save,
     e164_or_blank,
     number_normalise,
@@ -116,6 +118,9 @@ def _numbers_replace(vessel: Vessel, numbers: Sequence[Mapping[str, object]]) ->
     for entry in gone:
         entry.vessels.remove(vessel)
         removed += 1
+        was = _as_audited(entry.pk)["vessels"] + [vessel.slug]
+        now = sorted(slug for slug in was if slug != vessel.slug)
+        _audit_number("number.changed", entry, now, {"changes": {"vessels": [sorted(was), now]}})
     for reason in rejected:
         logger.warning("authorised number from the shore skipped: %s", reason)
     return NumbersReplaced(added, updated, removed, tuple(rejected))

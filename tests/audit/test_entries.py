@@ -368,6 +368,7 @@ def test_on_a_glider_the_shores_commands_and_numbers_name_the_shore(
         vessel=glider,
         numbers=[{"number": SKIPPER, "name": "Ana", "role": "control", "active": True}],
     )
+    authorised_numbers_replace(vessel=glider, numbers=[])  # Ana may no longer text it
     shore = ListingShore()
     shore.open = [{"uid": "6f1c2d3e-0000-4000-8000-000000000001", "kind": "light",
                    "params": {"state": "on"}}]  # fmt: skip
@@ -380,8 +381,11 @@ def test_on_a_glider_the_shores_commands_and_numbers_name_the_shore(
     entries = AuditEntry.objects.order_by("pk").values_list("action", "actor", "actor_kind", "via")
     assert list(entries) == [
         ("number.added", "shore", "system", "shore"),
+        ("number.changed", "shore", "system", "shore"),
         ("command.queued", "shore", "system", "api"),
     ]
+    changed = only("number.changed")
+    assert changed.detail == {"changes": {"vessels": [["glider"], []]}}
 
 
 # --- the boat's own requests are not audit events -----------------------------------------------
