@@ -1,13 +1,16 @@
 """The one way to write the audit log. Callers are services (never views): they know what was
-done; the request, when there is one, tells who and from where."""
+done; the origin in force (audit.context: a request's, a management command's) tells who and
+from where whenever the service was not told."""
 
 from __future__ import annotations
 
 import datetime as dt
+import ipaddress
 from typing import Any
 
 from django.utils import timezone
 
+from audit.context import current_origin
 from audit.models import ActorKind, AuditEntry
 
 # Field lengths of AuditEntry: a long name is cut, never refused; the log must not fail the
@@ -20,7 +23,7 @@ def audit_record(
     *,
     action: str,
     actor: str = "",
-    actor_kind: str = ActorKind.OPERATOR,
+    actor_kind: str | None = None,
     via: str = "",
     ip: str | None = None,
     subject_type: str = "",
@@ -30,16 +33,37 @@ def audit_record(
     detail: dict[str, Any] | None = None,
     now: dt.datetime | None = None,
 ) -> AuditEntry:
-    """Write one entry, in the caller's transaction (an action rolled back leaves no entry)."""
+    """Write one entry, in the caller's transaction (an action rolled back leaves no entry).
+
+    What the caller leaves blank comes from the origin in force (audit.context): the actor
+    (and its kind) when no ``actor`` is given, the kind when the actor given is the origin's,
+    the way in when no ``via``, and the client's address for an operator when no ``ip``.
+    Otherwise the kind is operator.
+    """
+    origin = current_origin()
+    if not actor or (actor == origin.actor and actor_kind is None):
+        actor, actor_kind = origin.actor, actor_kind or origin.actor_kind
+    actor_kind = actor_kind or ActorKind.OPERATOR
+    if ip is None and actor_kind == ActorKind.OPERATOR:
+        ip = origin.ip
     fields = {
-        "action": action, "actor": actor, "via": via, "subject_type": subject_type,
+        "action": action, "actor": actor, "via": via or origin.via, "subject_type": subject_type,
         "subject_id": str(subject_id), "subject": str(subject), "vessel": vessel,
     }  # fmt: skip
     fields = {name: value[: _LIMITS[name]] for name, value in fields.items()}
     return AuditEntry.objects.create(
         at=now or timezone.now(),
         actor_kind=actor_kind,
-        ip=ip or None,
+        ip=_address(ip),
         detail=detail or {},
         **fields,
     )
+
+
+def _address(ip: str | None) -> str | None:
+    """``ip`` if it is an IP address, else None: a proxy's odd X-Forwarded-For hop
+    ("unknown", a port) must not fail the action (PostgreSQL's inet column would refuse it)."""
+    try:
+        return str(ipaddress.ip_address((ip or "").strip().strip("[]")))
+    except ValueError:
+        return None

@@ -36,7 +36,7 @@ DESCRIPTIONS = {
     # The session scheme comes first, and it names no WWW-Authenticate challenge, so DRF
     # answers 403 for missing or bad operator credentials too (RFC 9110 §15.5.2 needs one).
     "403": "Not logged in, a bad or expired token, or without the permission this needs",
-    "404": "No such object for this caller",
+    "404": "No such object for this caller (a NUL in the path or the query names none)",
     "409": "The command's status does not allow this any more",
     "413": "The body is over DATA_UPLOAD_MAX_MEMORY_SIZE",
     "415": "The body is not application/json",
@@ -62,9 +62,11 @@ def error_codes(path: str, method: str, operation: dict[str, Any]) -> list[str]:
     codes = [*auth_codes(operation), "429", "503"]
     if "requestBody" in operation:
         codes += ["400", "413", "415"]
-    if any(p.get("in") == "query" for p in operation.get("parameters", [])):
+    query = [p for p in operation.get("parameters", []) if p.get("in") == "query"]
+    if query:
         codes.append("400")
-    if "{" in path:
+    # A NUL in a text parameter is a 404 before any view (fleet.middleware.RejectNulMiddleware).
+    if "{" in path or any(p.get("schema", {}).get("type") == "string" for p in query):
         codes.append("404")
     if method == "post" and path.endswith(CONFLICTS):
         codes.append("409")

@@ -20,6 +20,7 @@ api_v1 = [
     path("", include(command_urls.urlpatterns)),
     path("", include(sms_urls.urlpatterns)),
     path("fleet/overlays/", FleetOverlaysView.as_view(), name="fleet-overlays"),
+    path("", include("audit.api.urls")),
     path("schema/", SchemaView.as_view(permission_classes=[IsAuthenticated]), name="schema"),
     path(
         "docs/",

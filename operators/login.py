@@ -1,10 +1,18 @@
-"""Failed admin logins are limited per user name and client address (issue 8 #15).
+"""Failed admin logins are limited per user name and client address (issue 8 #15), and every
+login, failed login and logout is in the audit log.
 
 After LOGIN_FAILURE_LIMIT wrong passwords for one user name from one address, that pair is
 refused, without checking the password, until LOGIN_LOCKOUT_S seconds after its first
 failure; a successful login clears the count. Counts live in the default cache
 (settings.CACHES: share it between gunicorn workers). Another address, or another user name,
 is not affected, so an attacker cannot lock an operator out from everywhere.
+
+The audit entries come from Django's own auth signals (user_logged_in, user_login_failed,
+user_logged_out), connected in OperatorsConfig.ready(): no service of ours logs anyone in, and
+django.contrib.auth raises them for every way in (the admin's form, a test's force_login, any
+later login view), so no login path can forget them. They live here, beside the failure
+limit, because this app owns the operators' credentials. A refusal by the limit (no password
+checked, so no signal) is logged as ``login.throttled`` by the form.
 """
 
 from __future__ import annotations
@@ -16,9 +24,12 @@ from typing import Any
 
 from django.conf import settings
 from django.contrib.admin.forms import AdminAuthenticationForm
+from django.contrib.auth.base_user import AbstractBaseUser
 from django.core.cache import cache
 from django.core.exceptions import ValidationError
+from django.http import HttpRequest
 
+from audit.services import audit_record
 from operators.clients import client_address
 
 
@@ -66,6 +77,7 @@ class AdminLoginForm(AdminAuthenticationForm):
         username = self.cleaned_data.get("username") or ""
         address = client_address(self.request) if self.request else ""
         if login_blocked(username=username, address=address):
+            _audit_login("login.throttled", username, self.request)
             raise ValidationError(
                 self.error_messages["throttled"],
                 code="throttled",
@@ -79,3 +91,36 @@ class AdminLoginForm(AdminAuthenticationForm):
             raise
         login_succeeded(username=username, address=address)
         return cleaned
+
+
+# -- the audit log's receivers for django.contrib.auth's signals (see the module docstring) --
+
+
+def _audit_login(action: str, username: str, request: HttpRequest | None) -> None:
+    # The address from the signal's own request (authenticate() may be called outside the
+    # middleware's origin); the way in from the origin (audit.context), when there is one.
+    audit_record(
+        action=action,
+        actor=username,
+        subject_type="operator",
+        subject=username,
+        ip=client_address(request) if request is not None else None,
+    )
+
+
+def audit_logged_in(sender: Any, request: HttpRequest, user: AbstractBaseUser, **kw: Any) -> None:
+    _audit_login("login.succeeded", user.get_username(), request)
+
+
+def audit_login_failed(
+    sender: Any, credentials: dict[str, Any], request: HttpRequest | None = None, **kw: Any
+) -> None:
+    # credentials has the password masked by Django; only the name tried is kept.
+    _audit_login("login.failed", str(credentials.get("username", "")), request)
+
+
+def audit_logged_out(
+    sender: Any, request: HttpRequest, user: AbstractBaseUser | None, **kw: Any
+) -> None:
+    if user is not None:  # logging out without being logged in is nobody's action
+        _audit_login("login.logged_out", user.get_username(), request)

@@ -17,6 +17,7 @@ from sms.errors import InvalidNumber
 from sms.models import AuthorisedNumber, Direction, SmsMessage
 from sms.services import (
     authorised_number_deauthorise,
+    authorised_number_delete,
     authorised_number_save,
     number_normalise,
 )
@@ -65,6 +66,13 @@ class AuthorisedNumberAdmin(admin.ModelAdmin):
         # The vessels were set by authorised_number_save (the service owns every write).
         for formset in formsets:
             self.save_formset(request, form, formset, change=change)
+
+    def delete_model(self, request: HttpRequest, obj: AuthorisedNumber) -> None:
+        authorised_number_delete(entry=obj)
+
+    def delete_queryset(self, request: HttpRequest, queryset: QuerySet[AuthorisedNumber]) -> None:
+        for entry in queryset:
+            authorised_number_delete(entry=entry)
 
     @admin.action(description="Deauthorise selected numbers", permissions=["change"])
     def deauthorise(self, request: HttpRequest, queryset: QuerySet[AuthorisedNumber]) -> None:

@@ -12,6 +12,7 @@ from django.db.models import F
 from django.utils import timezone
 from django.utils.text import slugify
 
+from audit.services import audit_record
 from vessels import missionfiles, missions, sql
 from vessels.errors import MissionCheckError, MissionFileError
 from vessels.keys import PREFIX_SHOWN, generate_key, hash_key
@@ -33,7 +34,8 @@ def vessel_create(
 def vessel_key_issue(
     *, vessel: Vessel, label: str = "", created_by: str = ""
 ) -> tuple[VesselKey, str]:
-    """Create a key for ``vessel``; return it and the raw key, which is never stored or shown."""
+    """Create a key for ``vessel``; return it and the raw key, which is never stored or shown.
+    Audited as ``key.issued`` by ``created_by`` (else the origin's actor: audit.context)."""
     raw = generate_key()
     key = VesselKey(
         vessel=vessel,
@@ -43,17 +45,38 @@ def vessel_key_issue(
         key_hash=hash_key(raw),
     )
     key.full_clean()
-    key.save()
+    with transaction.atomic():
+        key.save()
+        _audit_key("key.issued", key, vessel, actor=created_by)
     return key, raw
 
 
+@transaction.atomic
 def vessel_key_revoke(*, key: VesselKey, now: dt.datetime | None = None) -> VesselKey:
-    """Revoke a key at once (idempotent: a revoked key keeps its first revocation time)."""
-    VesselKey.objects.filter(pk=key.pk, revoked_at__isnull=True).update(
-        revoked_at=now or timezone.now()
-    )
+    """Revoke a key at once (idempotent: a revoked key keeps its first revocation time).
+    Audited as ``key.revoked`` by the origin's actor (audit.context), the first time only."""
+    now = now or timezone.now()
+    revoked = VesselKey.objects.filter(pk=key.pk, revoked_at__isnull=True).update(revoked_at=now)
     key.refresh_from_db()
+    if revoked:
+        _audit_key("key.revoked", key, key.vessel, now=now)
     return key
+
+
+def _audit_key(
+    action: str, key: VesselKey, vessel: Vessel, *, actor: str = "", now: dt.datetime | None = None
+) -> None:
+    # The prefix and label name the key; the hash never leaves its row.
+    audit_record(
+        action=action,
+        actor=actor,
+        subject_type="vessel key",
+        subject_id=key.pk,
+        subject=f"{key.prefix}… ({key.label or 'no label'}) of {vessel.name}",
+        vessel=vessel.slug,
+        detail={"prefix": key.prefix, "label": key.label},
+        now=now,
+    )
 
 
 def vessel_key_touch(*, key: VesselKey, now: dt.datetime) -> None:

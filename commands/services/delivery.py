@@ -9,6 +9,7 @@ from typing import Any
 from django.db import transaction
 from django.utils import timezone
 
+from audit.services import audit_record
 from commands.errors import CommandError, CommandNotFound, TransitionError
 from commands.lifecycle import ACK_STATUSES, OPEN, Status, ack_is_stale, check_transition
 from commands.models import Command
@@ -131,13 +132,29 @@ def command_cancel(*, command: Command, actor: str, now: dt.datetime | None = No
     # forward a few times.
     for _attempt in range(3):
         command.refresh_from_db()
+        current = command.status
         detail = "cancelled by operator"
         if command.status == Status.SENT:
             detail += " (it may already have reached the vessel)"
         if _transition(command, Status.CANCELLED, now=now, actor=actor, detail=detail):
+            _audit_cancelled(command, actor, was=current, now=now)
             return command
     command.refresh_from_db()
     raise TransitionError(Status(command.status), Status.CANCELLED)
+
+
+def _audit_cancelled(command: Command, actor: str, *, was: str, now: dt.datetime) -> None:
+    vessel = command.vessel
+    audit_record(
+        action="command.cancelled",
+        actor=actor,
+        subject_type="command",
+        subject_id=command.uid,
+        subject=f"{command.kind} → {vessel.name}",
+        vessel=vessel.slug,
+        detail={"kind": command.kind, "was": was},
+        now=now,
+    )
 
 
 def command_withdraw_queued(

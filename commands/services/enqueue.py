@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 import uuid
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from django.conf import settings
@@ -12,6 +12,8 @@ from django.db import transaction
 from django.db.models import F
 from django.utils import timezone
 
+from audit.models import ActorKind
+from audit.services import audit_record
 from commands import catalog, sql
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import Status, check_transition
@@ -83,6 +85,7 @@ def command_enqueue(
     expires_at: dt.datetime | None = None,
     now: dt.datetime | None = None,
     uid: uuid.UUID | None = None,
+    audit_as: Mapping[str, Any] | None = None,
 ) -> Command:
     """Validate through the catalog and queue a command; raises CatalogError or CommandError.
 
@@ -90,10 +93,16 @@ def command_enqueue(
     the newest navigation order may reach the boat. ``uid`` keeps a command's identity from
     elsewhere (a glider queues its shore's commands under the shore's uid); a new one otherwise.
 
+    The audit log gets a ``command.queued`` entry: ``created_by`` did it (a phone number for
+    an SMS), through ``source``. ``audit_as`` (action, subject_type, subject_id, subject,
+    detail) writes another entry instead, for a caller that sends something as a command
+    (mission_send: ``mission.sent``): one entry naming what was sent, the command's uid in
+    its detail.
+
     Every refusal is raised before the transaction starts, so a caller inside its own
     transaction (the SMS handling) can answer it and go on; the writes then need no savepoint
     of their own: the command, one conditional UPDATE for the superseded ones, one INSERT for
-    all the events and one commands_version bump (3-4 statements).
+    all the events, one commands_version bump and the audit entry (4-5 statements).
     """
     now = now or timezone.now()
     valid, expires_at = command_validate(
@@ -124,7 +133,44 @@ def command_enqueue(
             _supersede_older_navigation(command, now)
         else:
             _record_enqueued(command, now)
+        _audit_enqueued(command, vessel, now, audit_as or {})
     return command
+
+
+# Who queues a command, by its source: a person at a screen or a script, else the phone.
+_ACTOR_KIND = {Source.SMS: ActorKind.PHONE, Source.VESSEL: ActorKind.VESSEL}
+
+
+def _audit_enqueued(
+    command: Command, vessel: Vessel, now: dt.datetime, audit_as: Mapping[str, Any]
+) -> None:
+    entry: dict[str, Any] = {
+        "action": "command.queued",
+        "subject_type": "command",
+        "subject_id": command.uid,
+        "subject": f"{command.kind} → {vessel.name}",
+        "detail": {"kind": command.kind, "params": _params_in_short(command.params)},
+    }
+    if audit_as:
+        entry |= audit_as
+        entry["detail"] = {"command": str(command.uid), **audit_as.get("detail", {})}
+    audit_record(
+        **entry,
+        actor=command.created_by,
+        actor_kind=_ACTOR_KIND.get(command.source) if command.created_by else None,
+        via=command.source,
+        vessel=vessel.slug,
+        now=now,
+    )
+
+
+def _params_in_short(params: dict[str, Any]) -> dict[str, Any]:
+    """The parameters as the log keeps them: a mission's waypoints counted, not copied (the
+    command keeps them; an entry stays small)."""
+    return {
+        name: f"{len(value)} items" if isinstance(value, list) else value
+        for name, value in params.items()
+    }
 
 
 def _serialise_navigation_enqueues(vessel_id: int) -> None:

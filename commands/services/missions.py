@@ -69,4 +69,11 @@ def mission_send(
         source=source,
         created_by=created_by,
         now=now,
+        audit_as={
+            "action": "mission.sent",
+            "subject_type": "mission",
+            "subject_id": mission.pk,
+            "subject": f"{mission.name} → {vessel.name}",
+            "detail": {"mission": mission.name, "waypoints": len(params["items"])},
+        },
     )

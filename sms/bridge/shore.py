@@ -51,6 +51,7 @@ from django.db import DatabaseError, close_old_connections, connections
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
+from audit.context import audit_origin
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import FINAL, Status
 from commands.models import Command, Source
@@ -64,6 +65,7 @@ from sms import selectors
 from sms.bridge.shore_config import ShoreConfig
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services import authorised_numbers_replace
+from sms.services.shore import SHORE_ORIGIN
 from telemetry.models import Fix
 from telemetry.services import fix_summary
 from vessels.models import Vessel
@@ -336,15 +338,17 @@ class ShoreLink:
             return False
         if owner is None:
             try:
-                command_enqueue(
-                    vessel=self.vessel,
-                    kind=str(wire.get("kind")),
-                    params=wire.get("params") or {},
-                    source=Source.API,
-                    created_by=CREATED_BY,
-                    expires_at=_when(wire.get("expires_at")),
-                    uid=uid,
-                )
+                # Its audit entry here names the shore (a system), not an operator.
+                with audit_origin(SHORE_ORIGIN):
+                    command_enqueue(
+                        vessel=self.vessel,
+                        kind=str(wire.get("kind")),
+                        params=wire.get("params") or {},
+                        source=Source.API,
+                        created_by=CREATED_BY,
+                        expires_at=_when(wire.get("expires_at")),
+                        uid=uid,
+                    )
             except (CatalogError, CommandError) as exc:
                 # Refused here (the glider's catalog, an inactive vessel): the shore hears why.
                 log.warning("shore command %s refused here: %s", key, exc)

@@ -13,6 +13,7 @@ from sms.services.incoming import SmsOutcome, shipped_table, sms_handle_incoming
 from sms.services.numbers import (
     authorised_number_authorise,
     authorised_number_deauthorise,
+    authorised_number_delete,
     authorised_number_save,
     number_normalise,
     validation_message,
@@ -36,6 +37,7 @@ __all__ = [
     "SmsOutcome",
     "authorised_number_authorise",
     "authorised_number_deauthorise",
+    "authorised_number_delete",
     "authorised_number_save",
     "authorised_numbers_replace",
     "number_normalise",

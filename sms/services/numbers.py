@@ -6,6 +6,7 @@ from __future__ import annotations
 import datetime as dt
 import functools
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 import phonenumbers
 from django.conf import settings
@@ -13,6 +14,7 @@ from django.core.exceptions import ValidationError
 from django.db import transaction
 from django.utils import timezone
 
+from audit.services import audit_record
 from sms.errors import InvalidNumber, NumberNotFound
 from sms.models import AuthorisedNumber
 from vessels.models import Vessel
@@ -52,13 +54,53 @@ def authorised_number_save(
     *, entry: AuthorisedNumber, vessels: Iterable[Vessel] | None = None
 ) -> AuthorisedNumber:
     """Save an entry (new or edited) with its number in E.164; raises InvalidNumber or
-    ValidationError. ``vessels``, when given, replaces the vessels it may address."""
+    ValidationError. ``vessels``, when given, replaces the vessels it may address.
+
+    Audited (by the origin's actor: audit.context) as ``number.added``, or ``number.changed``
+    with each changed field's old and new value; a save that changes nothing is not logged.
+    """
     entry.number = number_normalise(raw=entry.number)
     entry.full_clean()
+    before = _as_audited(entry.pk) if entry.pk else None
     entry.save()
     if vessels is not None:
         entry.vessels.set(list(vessels))
+    after = _as_audited(entry.pk)
+    if before is None:
+        _audit_number("number.added", entry, after["vessels"], detail=after)
+    elif changes := {k: [before[k], v] for k, v in after.items() if before[k] != v}:
+        _audit_number("number.changed", entry, after["vessels"], detail={"changes": changes})
     return entry
+
+
+# What an entry's audit detail shows; notes only as changed or not (free text, any length).
+_AUDITED = ["number", "name", "role", "active", "expires_at"]
+
+
+def _as_audited(pk: int) -> dict[str, Any]:
+    row = AuthorisedNumber.objects.filter(pk=pk).values(*_AUDITED, "notes").get()
+    row["expires_at"] = row["expires_at"].isoformat() if row["expires_at"] else None
+    row["notes"] = "set" if row["notes"] else ""
+    row["vessels"] = sorted(
+        AuthorisedNumber.vessels.through.objects.filter(authorisednumber_id=pk).values_list(
+            "vessel__slug", flat=True
+        )
+    )
+    return row
+
+
+def _audit_number(
+    action: str, entry: AuthorisedNumber, slugs: Sequence[str], detail: dict[str, Any]
+) -> None:
+    audit_record(
+        action=action,
+        subject_type="authorised number",
+        subject_id=entry.pk,
+        subject=f"{entry.name} ({entry.number})",
+        # The vessel column holds one slug: a number for several names them in its detail.
+        vessel=slugs[0] if len(slugs) == 1 else "",
+        detail=detail,
+    )
 
 
 @transaction.atomic
@@ -86,18 +128,35 @@ def authorised_number_authorise(
     return authorised_number_save(entry=entry, vessels=vessels)
 
 
+@transaction.atomic
 def authorised_number_deauthorise(
     *, number: str | None = None, entry: AuthorisedNumber | None = None
 ) -> AuthorisedNumber:
-    """Make an entry inactive (kept, so the log still names its holder)."""
+    """Make an entry inactive (kept, so the log still names its holder); audited as
+    ``number.deauthorised`` when it was active."""
     if entry is None:
         e164 = number_normalise(raw=number or "")
         entry = AuthorisedNumber.objects.filter(number=e164).first()
         if entry is None:
             raise NumberNotFound(f"{e164} is not an authorised number")
-    AuthorisedNumber.objects.filter(pk=entry.pk).update(active=False, updated_at=timezone.now())
+    # Conditional: an entry already inactive is left alone, and logged once only.
+    changed = AuthorisedNumber.objects.filter(pk=entry.pk, active=True).update(
+        active=False, updated_at=timezone.now()
+    )
     entry.refresh_from_db()
+    if changed:
+        slugs = _as_audited(entry.pk)["vessels"]
+        _audit_number("number.deauthorised", entry, slugs, detail={"vessels": slugs})
     return entry
+
+
+@transaction.atomic
+def authorised_number_delete(*, entry: AuthorisedNumber) -> None:
+    """Delete an entry (the SMS log keeps the number it was sent from); audited as
+    ``number.removed`` with what the entry held."""
+    held = _as_audited(entry.pk)
+    _audit_number("number.removed", entry, held["vessels"], detail=held)
+    entry.delete()
 
 
 def validation_message(exc: ValidationError) -> str:

@@ -15,12 +15,16 @@ from django.db import IntegrityError, transaction
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
+from audit.context import Origin, audit_origin
+from audit.models import ActorKind
 from commands.models import Command
 from edge_client.contract.batch import BatchAnswer
 from sms.errors import InvalidNumber
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SmsMessage
 from sms.services._common import DETAIL_MAX, TEXT_STORE_MAX, _save_checked
 from sms.services.numbers import (
+    _as_audited,
+    _audit_number,
     authorised_number_save,
     e164_or_blank,
     number_normalise,
@@ -65,8 +69,16 @@ def authorised_numbers_replace(
     The shore admin is where numbers are managed: an entry missing from the list may no longer
     address the vessel (its entry is kept, so the log still names its holder). An unusable
     entry is skipped and reported; the others are applied. Entries that did not change are not
-    written.
+    written. Its audit entries (a glider's own log) name the shore as who changed them.
     """
+    with audit_origin(SHORE_ORIGIN):
+        return _numbers_replace(vessel, numbers)
+
+
+SHORE_ORIGIN = Origin(actor="shore", actor_kind=ActorKind.SYSTEM, via="shore")
+
+
+def _numbers_replace(vessel: Vessel, numbers: Sequence[Mapping[str, object]]) -> NumbersReplaced:
     added = updated = 0
     rejected: list[str] = []
     kept: set[str] = set()
@@ -106,6 +118,9 @@ def authorised_numbers_replace(
     for entry in gone:
         entry.vessels.remove(vessel)
         removed += 1
+        was = _as_audited(entry.pk)["vessels"] + [vessel.slug]
+        now = sorted(slug for slug in was if slug != vessel.slug)
+        _audit_number("number.changed", entry, now, {"changes": {"vessels": [sorted(was), now]}})
     for reason in rejected:
         logger.warning("authorised number from the shore skipped: %s", reason)
     return NumbersReplaced(added, updated, removed, tuple(rejected))

@@ -1,5 +1,6 @@
 """command_enqueue's writes are few and fixed: one statement each for the command, the
-superseded ones, all the events and the version bump, however many commands it supersedes."""
+superseded ones, all the events, the version bump and the audit entry, however many commands
+it supersedes."""
 
 from __future__ import annotations
 
@@ -46,8 +47,9 @@ def test_superseding_two_commands_takes_one_update_and_one_insert_for_all_events
     with CaptureQueriesContext(connection) as context:
         newest = hold(glider)
     lock = 1 if connection.vendor == "postgresql" else 0  # the per-vessel advisory lock
-    # INSERT the command, UPDATE … RETURNING the superseded, INSERT the events, bump.
-    assert len(statements(context)) == 4 + lock
+    # INSERT the command, UPDATE … RETURNING the superseded, INSERT the events, bump, and
+    # INSERT the audit entry (command.queued: who queued it, through what, from where).
+    assert len(statements(context)) == 5 + lock
     assert not any(q["sql"].startswith("SAVEPOINT") for q in context.captured_queries)
     for old in (first, second):
         old.refresh_from_db()
@@ -60,10 +62,10 @@ def test_superseding_two_commands_takes_one_update_and_one_insert_for_all_events
     assert version(glider) == before + 3
 
 
-def test_an_enqueue_with_nothing_to_supersede_writes_three_statements(glider: Vessel) -> None:
+def test_an_enqueue_with_nothing_to_supersede_writes_four_statements(glider: Vessel) -> None:
     with CaptureQueriesContext(connection) as context:
         light = command_enqueue(vessel=glider, kind="light", params={"state": "on"})
-    assert len(statements(context)) == 3  # the command, its event, the bump
+    assert len(statements(context)) == 4  # the command, its event, the bump, the audit entry
     assert CommandEvent.objects.filter(command=light).count() == 1
 
 

@@ -53,6 +53,7 @@ OPERATOR_PERMS = [
     "commands.view_command",
     "commands.add_command",
     "commands.change_command",
+    "audit.view_auditentry",
 ]
 
 
@@ -131,9 +132,10 @@ def credentials(
 
 # Rules OpenAPI 3.0 cannot state, so the valid requests follow them here: they name objects
 # that exist; a time range lies within the plausible window (from 2018 to ten years ahead)
-# with `from` before `to`; a mission's `updated_at` sent back is the version it has now; the
-# mission starts each request without a home, so a PATCH's home rule (checked on the mission
-# as it leaves it) is the body's own.
+# with `from` before `to` (the audit log's `since` and `until` alike); a page's cursor is one
+# the list gave (none: the first page); a mission's `updated_at` sent back is the version it
+# has now; the mission starts each request without a home, so a PATCH's home rule (checked on
+# the mission as it leaves it) is the body's own.
 # Where validity depends on more than the request, a valid request may still be refused
 # with a 400 naming why: a command's kind and params against the catalog for this vessel's
 # kind, and an imported file's content.
@@ -153,11 +155,12 @@ def follow_the_rules(case: Any, existing: dict[str, str]) -> None:
         }
     if case.query:
         query = dict(case.query)
-        for name in ("from", "to"):
+        for name, same in (("from", "from"), ("to", "to"), ("since", "from"), ("until", "to")):
             if name in query:
-                query[name] = VALID_RANGE[name]
+                query[name] = VALID_RANGE[same]
         if "time" in query:
             query["time"] = VALID_TIME
+        query.pop("cursor", None)
         case.query = query
     if isinstance(case.body, dict) and isinstance(case.body.get("vessel"), str):
         case.body = {**case.body, "vessel": existing["slug"]}

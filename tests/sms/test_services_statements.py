@@ -17,8 +17,9 @@ from vessels.models import Vessel
 
 SKIPPER = "+61412345678"
 # Reads: the earlier delivery, the sender's entry, the rate count. Writes: the command, the
-# superseded ones, their events, the version bump, the SMS, its reply, the links.
-ONE_NAVIGATION_COMMAND = 10
+# superseded ones, their events, the version bump, the audit entry (command.queued by the
+# phone), the SMS, its reply, the links.
+ONE_NAVIGATION_COMMAND = 11
 ADVISORY_LOCK = 1  # PostgreSQL only: navigation enqueues take turns per vessel
 
 
@@ -35,7 +36,7 @@ def send(glider: Vessel, text: str, seconds: int) -> object:
     )
 
 
-def test_one_sms_with_one_navigation_command_takes_ten_statements(glider: Vessel) -> None:
+def test_one_sms_with_one_navigation_command_takes_eleven_statements(glider: Vessel) -> None:
     authorise(glider)
     send(glider, "#HOLD", 1)
     with CaptureQueriesContext(connection) as context:

@@ -10,10 +10,11 @@ from typing import Any
 
 from django.conf import settings
 from django.contrib.auth.models import Group, Permission, User
-from django.core.management.base import BaseCommand, CommandParser
+from django.core.management.base import CommandParser
 from django.db import transaction
 from django.utils import timezone
 
+from audit.context import AuditedCommand
 from commands.models import Source
 from commands.services import command_ack, command_claim_open, command_enqueue
 from edge_client.contract.status import Status
@@ -47,6 +48,7 @@ OPERATOR_PERMS = {
     "commands": ["view_command", "add_command", "change_command", "view_commandevent"],
     "sms": ["view_authorisednumber", "add_authorisednumber", "change_authorisednumber",
             "view_smsmessage"],
+    "audit": ["view_auditentry"],
 }  # fmt: skip
 # A field user's phone that may command the demo glider (docs/development.md; manage.py demo_sms).
 DEMO_NUMBER = "+61400000001"
@@ -72,7 +74,7 @@ CHANNELS = [
 HISTORY = dt.timedelta(hours=3)
 
 
-class Command(BaseCommand):
+class Command(AuditedCommand):  # its keys, numbers and commands audited as the shell user
     help = "Create a demo fleet with an operator login, vessel keys and a few hours of history."
 
     def add_arguments(self, parser: CommandParser) -> None:

@@ -7,14 +7,15 @@ from typing import Any
 
 from django.contrib.auth import get_user_model
 from django.core.exceptions import ValidationError
-from django.core.management.base import BaseCommand, CommandError, CommandParser
+from django.core.management.base import CommandError, CommandParser
 
+from audit.context import AuditedCommand
 from operators.services import operator_token_issue
 
 DEFAULT_EXPIRES_DAYS = 90
 
 
-class Command(BaseCommand):
+class Command(AuditedCommand):  # audited as the shell user, via cli
     help = "Issue a personal API token for an operator. The token is printed once, alone on stdout."
 
     def add_arguments(self, parser: CommandParser) -> None:

@@ -6,8 +6,9 @@ import datetime as dt
 from typing import Any
 
 from django.core.exceptions import ValidationError
-from django.core.management.base import BaseCommand, CommandError, CommandParser
+from django.core.management.base import CommandError, CommandParser
 
+from audit.context import AuditedCommand
 from sms.errors import SmsError
 from sms.models import Role
 from sms.services import authorised_number_authorise, validation_message
@@ -21,7 +22,7 @@ def _date(text: str) -> dt.date:
         raise CommandError(f"--expires {text!r} is not a date (YYYY-MM-DD)") from None
 
 
-class Command(BaseCommand):
+class Command(AuditedCommand):  # audited as the shell user, via cli
     help = (
         "Authorise a phone number to text these vessels (exactly these: re-running replaces "
         "the list) with a role; it becomes active. Prints the E.164 number."

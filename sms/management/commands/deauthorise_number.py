@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from django.core.management.base import BaseCommand, CommandError, CommandParser
+from django.core.management.base import CommandError, CommandParser
 
+from audit.context import AuditedCommand
 from sms.errors import SmsError
 from sms.services import authorised_number_deauthorise
 
 
-class Command(BaseCommand):
+class Command(AuditedCommand):  # audited as the shell user, via cli
     help = "Stop answering a phone number: its entry stays, inactive, for the SMS log."
 
     def add_arguments(self, parser: CommandParser) -> None:

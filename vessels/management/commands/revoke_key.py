@@ -2,13 +2,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from django.core.management.base import BaseCommand, CommandError, CommandParser
+from django.core.management.base import CommandError, CommandParser
 
+from audit.context import AuditedCommand
 from vessels.models import VesselKey
 from vessels.services import vessel_key_revoke
 
 
-class Command(BaseCommand):
+class Command(AuditedCommand):  # audited as the shell user, via cli
     help = "Revoke a vessel's keys: one by its prefix, or all with --all."
 
     def add_arguments(self, parser: CommandParser) -> None:
