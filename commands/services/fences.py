@@ -10,10 +10,8 @@ from __future__ import annotations
 import datetime as dt
 from typing import Any
 
-from django.db import transaction
 from django.db.models import Q
 
-from audit.services import audit_record
 from commands.errors import CatalogError, CommandError
 from commands.models import Command, Source
 from commands.services.enqueue import command_enqueue
@@ -60,7 +58,6 @@ def fence_send(
     vessel: Vessel | None = None,
     created_by: str = "",
     source: str = Source.API,
-    ip: str | None = None,
     now: dt.datetime | None = None,
 ) -> Command:
     """Queue a `fence` command loading ``vessel``'s whole fence set into its autopilot, sent
@@ -91,29 +88,22 @@ def fence_send(
             field="vessel",
         )
     params = fence_set_params(vessel=vessel)
-    with transaction.atomic():
-        command = command_enqueue(
-            vessel=vessel,
-            kind="fence",
-            params=params,
-            source=source,
-            created_by=created_by,
-            now=now,
-        )
-        audit_record(
-            action="fence.sent",
-            actor=created_by,
-            via=source,
-            ip=ip,
-            subject_type="fence",
-            subject_id=fence.pk,
-            subject=fence.name,
-            vessel=vessel.slug,
-            detail={
-                "command": str(command.uid),
+    # One audit entry naming what was sent (command_enqueue's audit_as), not two.
+    return command_enqueue(
+        vessel=vessel,
+        kind="fence",
+        params=params,
+        source=source,
+        created_by=created_by,
+        now=now,
+        audit_as={
+            "action": "fence.sent",
+            "subject_type": "fence",
+            "subject_id": fence.pk,
+            "subject": fence.name,
+            "detail": {
                 "fences": [f["id"] for f in params["fences"]],
                 "items": shape.mavlink_item_count(params["fences"]),
             },
-            now=now,
-        )
-    return command
+        },
+    )
