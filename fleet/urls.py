@@ -5,6 +5,7 @@ from django.urls import include, path
 from drf_spectacular.views import SpectacularSwaggerView
 from rest_framework.permissions import IsAuthenticated
 
+from alerts.api import urls as alert_urls
 from commands.api import urls as command_urls
 from fleet.console_api import FleetOverlaysView
 from fleet.schema import SchemaView
@@ -19,6 +20,7 @@ api_v1 = [
     path("", include(telemetry_urls.urlpatterns)),
     path("", include(command_urls.urlpatterns)),
     path("", include(sms_urls.urlpatterns)),
+    path("", include(alert_urls.urlpatterns)),
     path("fleet/overlays/", FleetOverlaysView.as_view(), name="fleet-overlays"),
     path("schema/", SchemaView.as_view(permission_classes=[IsAuthenticated]), name="schema"),
     path(
