@@ -150,7 +150,7 @@ def alert_rule_create(
     _check(rule)
     rule.save()
     rule.channels.set(list(channels))
-    _audit(rule, "rule.created", by=by, via=via, ip=ip, rule=_summary(rule),
+    _audit(rule, "rule.created", by=by, via=via, ip=ip, settings=_summary(rule),
            channels=sorted(c.pk for c in channels))  # fmt: skip
     return rule
 
@@ -193,5 +193,5 @@ def alert_rule_delete(
     *, rule: AlertRule, by: str = "", via: str = "", ip: str | None = None
 ) -> None:
     """Delete a rule and its alerts (they cascade); the audit entry keeps what it was."""
-    _audit(rule, "rule.deleted", by=by, via=via, ip=ip, rule=_summary(rule))
+    _audit(rule, "rule.deleted", by=by, via=via, ip=ip, settings=_summary(rule))
     rule.delete()
