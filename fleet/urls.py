@@ -7,7 +7,7 @@ from rest_framework.permissions import IsAuthenticated
 
 from alerts.api import urls as alert_urls
 from commands.api import urls as command_urls
-from fleet.console_api import FleetOverlaysView
+from fleet.console_api import FleetAlertsView, FleetOverlaysView
 from fleet.schema import SchemaView
 from sms.api import urls as sms_urls
 from telemetry.api import urls as telemetry_urls
@@ -22,6 +22,7 @@ api_v1 = [
     path("", include(sms_urls.urlpatterns)),
     path("", include(alert_urls.urlpatterns)),
     path("fleet/overlays/", FleetOverlaysView.as_view(), name="fleet-overlays"),
+    path("fleet/alerts/", FleetAlertsView.as_view(), name="fleet-alerts"),
     path("schema/", SchemaView.as_view(permission_classes=[IsAuthenticated]), name="schema"),
     path(
         "docs/",

@@ -47,8 +47,11 @@ def _finite(value: Any) -> bool:
 
 def position(where: str, value: Any) -> tuple[float, float]:
     """A GeoJSON position [lon, lat] (an altitude after them is dropped) as (lon, lat)."""
-    if not isinstance(value, list | tuple) or len(value) < 2:
-        raise FenceError(f"{where}: a position is [longitude, latitude] (got {value!r:.60})")
+    if not isinstance(value, list | tuple) or not 2 <= len(value) <= 3:
+        raise FenceError(
+            f"{where}: a position is [longitude, latitude] or [longitude, latitude, altitude] "
+            f"(got {value!r:.60})"
+        )
     lon, lat = value[0], value[1]
     if not (_finite(lon) and _finite(lat)):
         raise FenceError(f"{where}: longitude and latitude must be numbers (got {lon!r}, {lat!r})")

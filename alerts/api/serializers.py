@@ -48,8 +48,11 @@ class VesselKindField(serializers.ChoiceField):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(VesselKind.choices, allow_null=True, required=False, **kwargs)
 
-    def to_internal_value(self, data: Any) -> str:
-        return "" if data is None else super().to_internal_value(data)
+    def validate_empty_values(self, data: Any) -> tuple[bool, Any]:
+        # null is the model's blank ("": every kind); DRF would pass None on unvalidated.
+        if data is None:
+            return True, ""
+        return super().validate_empty_values(data)
 
     def to_representation(self, value: str) -> str | None:
         return value or None

@@ -67,6 +67,13 @@ class AlertCursor(CursorPagination):
     page_size_query_param = "page_size"
     max_page_size = 1000
 
+    def get_page_size(self, request: Request) -> int:
+        # DRF ignores a page_size that is no number; the schema says integer, so it is a 400.
+        given = request.query_params.getlist(self.page_size_query_param)
+        if given and not (len(given) == 1 and given[0].isdigit() and int(given[0]) > 0):
+            raise exceptions.ValidationError({"page_size": ["a whole number above 0"]})
+        return super().get_page_size(request)
+
 
 @extend_schema(tags=["operator"])
 @extend_schema_view(

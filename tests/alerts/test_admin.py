@@ -68,14 +68,16 @@ def test_fences_are_imported_from_a_plan(admin_ui, vessel_a):
 
 def test_sending_a_fence_says_what_happened_per_vessel(admin_ui, vessel_a):
     fence = fence_create(name="Box", geometry=polygon(SQUARE), vessel=vessel_a)
-    r = admin_ui.post("/admin/vessels/fence/", {"action": "send_to_vessel",
-                                                "_selected_action": [fence.pk]}, follow=True)  # fmt: skip
+    chosen = {"action": "send_to_vessel", "_selected_action": [fence.pk]}
+    r = admin_ui.post("/admin/vessels/fence/", chosen, follow=True)
     page = r.content.decode()
     assert "Box → SPAB:" in page  # queued, or the catalog's reason why not
 
 
 def test_a_rule_is_checked_for_its_kind_on_the_page(admin_ui):
-    r = admin_ui.post("/admin/alerts/alertrule/add/", {"name": "Low", "kind": "battery", "active": "on"})
+    r = admin_ui.post(
+        "/admin/alerts/alertrule/add/", {"name": "Low", "kind": "battery", "active": "on"}
+    )
     assert r.status_code == 200
     assert "a battery rule needs a threshold (volts)" in r.content.decode()
     r = admin_ui.post("/admin/alerts/alertrule/add/", {
@@ -95,8 +97,8 @@ def test_alerts_are_acknowledged_from_the_list(admin_ui, vessel_a):
     alert = open_alert(vessel_a)
     page = admin_ui.get("/admin/alerts/alert/?active=yes").content.decode()
     assert "alert-open" in page and "battery 11.2 V" in page
-    r = admin_ui.post("/admin/alerts/alert/", {"action": "acknowledge",
-                                               "_selected_action": [alert.pk]}, follow=True)  # fmt: skip
+    chosen = {"action": "acknowledge", "_selected_action": [alert.pk]}
+    r = admin_ui.post("/admin/alerts/alert/", chosen, follow=True)
     assert "Acknowledged 1 alert(s)." in r.content.decode()
     alert.refresh_from_db()
     assert (alert.state, alert.acknowledged_by) == ("acknowledged", "admin")
