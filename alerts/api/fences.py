@@ -18,6 +18,7 @@ from rest_framework.request import Request
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
+from alerts.api.serializers import who
 from alerts.services.interim import fence_send
 from commands.api.operator import CommandSerializer
 from commands.models import Command, Source
@@ -101,19 +102,11 @@ class FenceSerializer(serializers.ModelSerializer):
         ]  # fmt: skip
         read_only_fields = ["id", "created_at", "updated_at"]
 
-    def _who(self) -> dict[str, Any]:
-        request = self.context["request"]
-        return {
-            "by": request.user.get_username(),
-            "via": "api",
-            "ip": request.META.get("REMOTE_ADDR"),
-        }
-
     def create(self, validated_data: dict[str, Any]) -> Fence:
-        return fence_create(**validated_data, **self._who())
+        return fence_create(**validated_data, **who(self.context["request"]))
 
     def update(self, instance: Fence, validated_data: dict[str, Any]) -> Fence:
-        return fence_update(fence=instance, fields=validated_data, **self._who())
+        return fence_update(fence=instance, fields=validated_data, **who(self.context["request"]))
 
 
 class FenceImportSerializer(serializers.Serializer):
@@ -147,9 +140,7 @@ class FenceViewSet(viewsets.ModelViewSet):
         return fences_visible_to(self.request.user)
 
     def perform_destroy(self, instance: Fence) -> None:
-        request = self.request
-        fence_delete(fence=instance, by=request.user.get_username(), via="api",
-                     ip=request.META.get("REMOTE_ADDR"))  # fmt: skip
+        fence_delete(fence=instance, **who(self.request))
 
     @extend_schema(
         request={"multipart/form-data": FenceImportSerializer},
@@ -176,9 +167,7 @@ class FenceViewSet(viewsets.ModelViewSet):
             vessel=data.get("vessel"),
             name=data.get("name", ""),
             filename=upload.name or "",
-            by=request.user.get_username(),
-            via="api",
-            ip=request.META.get("REMOTE_ADDR"),
+            **who(request),
         )
         body = FenceSerializer(created, many=True, context=self.get_serializer_context()).data
         return Response(body, status=status.HTTP_201_CREATED)
