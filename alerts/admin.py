@@ -56,7 +56,6 @@ class AlertRuleAdmin(admin.ModelAdmin):
     list_filter = ["kind", "active", "vessel_kind"]
     list_select_related = ["vessel", "fence"]
     search_fields = ["name", "reading"]
-    autocomplete_fields = []
     filter_horizontal = ["channels"]
     fieldsets = [
         (None, {"fields": ["name", "kind", "active"]}),

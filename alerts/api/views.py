@@ -76,6 +76,13 @@ class AlertCursor(CursorPagination):
             raise exceptions.ValidationError({"page_size": ["a whole number"]})
         return super().get_page_size(request)
 
+    def decode_cursor(self, request: Request) -> Any:
+        # DRF answers a bad cursor 404; on a list's own path that is bad input (400).
+        try:
+            return super().decode_cursor(request)
+        except exceptions.NotFound:
+            raise exceptions.ValidationError({"cursor": ["not a cursor this list gave"]}) from None
+
 
 @extend_schema(tags=["operator"])
 @extend_schema_view(

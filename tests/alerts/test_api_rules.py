@@ -229,3 +229,14 @@ def test_who_may_see_and_make_channels(operator, readonly, boat_a):
         assert client.get(CHANNELS).status_code == 403
         assert client.post(CHANNELS, body, format="json").status_code == 403
     assert not NotificationChannel.objects.exists()
+
+
+def test_the_alerts_pages_with_a_cursor_and_refuses_a_bad_one(watcher, vessel_a):
+    for minutes in (3, 2, 1):
+        open_alert(vessel_a, minutes_ago=minutes, state=AlertState.RESOLVED)
+    first = watcher.get(ALERTS, {"page_size": 2}).json()
+    assert len(first["results"]) == 2 and first["next"]
+    second = watcher.get(first["next"]).json()
+    assert len(second["results"]) == 1
+    assert watcher.get(ALERTS, {"cursor": "nonsense"}).status_code == 400
+    assert watcher.get(ALERTS, {"page_size": "lots"}).status_code == 400
