@@ -29,7 +29,8 @@
   Alerts.prototype.poll = function () {
     var self = this;
     clearTimeout(this.timer);
-    if (document.hidden || this.inFlight) { return; }
+    if (this.inFlight) { this.again = true; return; } // once the one in flight is answered
+    if (document.hidden) { return; }
     this.inFlight = true;
     var headers = this.etag ? { "If-None-Match": this.etag } : {};
     S.getJSON(this.cfg.alertsUrl, headers)
@@ -46,6 +47,7 @@
       .catch(function () { self.etag = null; }) // the fleet poll reports a dead link
       .then(function () {
         self.inFlight = false;
+        if (self.again) { self.again = false; self.poll(); return; }
         self.timer = setTimeout(function () { self.poll(); }, self.cfg.pollS * 1000);
       });
   };
@@ -131,7 +133,6 @@
       .catch(function (err) { self.message = { kind: "error", text: "Not acknowledged: " + err }; })
       .then(function () {
         self.etag = null;
-        self.inFlight = false;
         self.poll();
         self.fleet.tick();
       });
