@@ -166,7 +166,7 @@ def credentials(
 # kind, and an imported file's content.
 # A fence's geometry (a closed ring of distinct vertices), an alert rule's fields by kind, a
 # channel's target by kind and an imported fence file are the services' to judge, past what a
-# schema can say.
+# schema can say; an alert list's `cursor` is one the list gave (any other string is a 400).
 VALID_BY_STATE = {
     "POST /api/v1/vessels/{slug}/commands/",
     "POST /api/v1/missions/import/",
@@ -177,6 +177,7 @@ VALID_BY_STATE = {
     "POST /api/v1/alert-rules/",
     "PATCH /api/v1/alert-rules/{id}/",
     "POST /api/v1/notification-channels/",
+    "GET /api/v1/alerts/",
 }
 VALID_RANGE = {"from": "2026-11-23T09:00:00Z", "to": "2026-11-23T11:00:00Z"}
 VALID_TIME = "2026-11-23T10:00:00Z"
