@@ -11,7 +11,7 @@ from typing import Any
 
 from django.contrib import admin, messages
 from django.core.exceptions import PermissionDenied
-from django.db.models import QuerySet
+from django.db.models import Count, Q, QuerySet
 from django.http import Http404, HttpRequest, HttpResponse, HttpResponseNotAllowed
 from django.shortcuts import redirect
 from django.template.response import TemplateResponse
@@ -19,6 +19,8 @@ from django.urls import path, reverse
 from django.utils.dateparse import parse_datetime
 from django.utils.html import format_html, format_html_join
 
+from alerts.admin import state_badge
+from alerts.models import ACTIVE_STATES, Alert
 from commands.admin import CommandAdmin, status_badge
 from commands.errors import CommandError
 from commands.models import Command, Source
@@ -36,11 +38,62 @@ RECENT_ROWS = 15
 
 
 class FleetVesselAdmin(VesselAdmin):
-    readonly_fields = [*VesselAdmin.readonly_fields, "recent_fixes", "recent_commands"]
+    readonly_fields = [
+        *VesselAdmin.readonly_fields, "open_alerts", "recent_fixes", "recent_commands",
+    ]  # fmt: skip
+    list_display = [*VesselAdmin.list_display[:4], "alerts_shown", *VesselAdmin.list_display[4:]]
     fieldsets = [
-        *VesselAdmin.fieldsets,
+        VesselAdmin.fieldsets[0],
+        ("Open alerts", {"fields": ["open_alerts"]}),
+        *VesselAdmin.fieldsets[1:],
         ("Recent activity", {"fields": ["recent_fixes", "recent_commands"]}),
     ]
+
+    def get_queryset(self, request: HttpRequest) -> QuerySet[Vessel]:
+        # The list's alert column, counted in the list's one query.
+        active = Q(alerts__state__in=[s.value for s in ACTIVE_STATES])
+        return super().get_queryset(request).annotate(active_alerts=Count("alerts", filter=active))
+
+    @admin.display(description="alerts", ordering="active_alerts")
+    def alerts_shown(self, vessel: Vessel) -> str:
+        count = getattr(vessel, "active_alerts", 0)
+        if not count:
+            return "–"
+        link = (
+            reverse("admin:alerts_alert_changelist") + f"?active=yes&vessel__id__exact={vessel.pk}"
+        )
+        return format_html(
+            '<a class="alert-count" href="{}" style="color:#c62828"><b>{}</b></a>', link, count
+        )
+
+    @admin.display(description="open alerts")
+    def open_alerts(self, vessel: Vessel) -> str:
+        alerts = (
+            Alert.objects.filter(vessel=vessel, state__in=[s.value for s in ACTIVE_STATES])
+            .select_related("rule")
+            .order_by("-opened_at")
+        )
+        if not alerts:
+            return "None."
+        rows = format_html_join(
+            "",
+            '<tr><td class="nowrap">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>',
+            (
+                (fmt_time(a.opened_at), state_badge(a.state), a.rule.name, a.detail,
+                 a.acknowledged_by and f"by {a.acknowledged_by}")
+                for a in alerts
+            ),
+        )  # fmt: skip
+        link = (
+            reverse("admin:alerts_alert_changelist") + f"?active=yes&vessel__id__exact={vessel.pk}"
+        )
+        return format_html(
+            '<table class="open-alerts"><tr><th>opened</th><th>state</th><th>rule</th>'
+            "<th>detail</th><th>acknowledged</th></tr>{}</table>"
+            '<a class="button" href="{}">Acknowledge on the alerts page</a>',
+            rows,
+            link,
+        )
 
     class Media:
         css = {"all": ["commands/status.css"]}  # the recent commands' status badges

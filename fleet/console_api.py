@@ -1,5 +1,6 @@
-"""``GET /api/v1/fleet/overlays/``: the fleet map's trails and running missions (fleet.console),
-with an ETag like the fleet poll's."""
+"""``GET /api/v1/fleet/overlays/``: the fleet map's trails, running missions and fences
+(fleet.console), and ``GET /api/v1/fleet/alerts/``: its open alerts (fleet.console_alerts);
+both with an ETag like the fleet poll's."""
 
 from __future__ import annotations
 
@@ -14,11 +15,13 @@ from rest_framework import serializers
 from rest_framework.request import Request
 from rest_framework.views import APIView
 
+from alerts.models import Alert
 from fleet.console import TRAIL_MAX_MINUTES, fleet_overlays
+from fleet.console_alerts import active_alerts, fence_entries
 from telemetry.api.maps import int_param
 from vessels.api.conditional import etag_matches
 from vessels.models import Vessel
-from vessels.permissions import ModelPermissions
+from vessels.permissions import CanViewVessels, ModelPermissions
 from vessels.selectors import fleet_vessels
 
 
@@ -44,6 +47,15 @@ class _MissionSerializer(serializers.Serializer):
     items = _MissionItemSerializer(many=True)
 
 
+class _FenceSerializer(serializers.Serializer):
+    id = serializers.IntegerField()
+    name = serializers.CharField()
+    vessel = serializers.SlugField(allow_null=True, help_text="null: every vessel's")
+    inclusion = serializers.BooleanField()
+    geometry = serializers.JSONField(help_text="GeoJSON Polygon, or a Point (with radius_m)")
+    radius_m = serializers.FloatField(allow_null=True)
+
+
 class _OverlaySerializer(serializers.Serializer):
     slug = serializers.SlugField()
     trail = _TrailSerializer(allow_null=True)
@@ -62,6 +74,9 @@ class OverlaysSerializer(serializers.Serializer):
         help_text="the caller may see commands (else every mission is null)"
     )
     vessels = _OverlaySerializer(many=True)
+    fences = _FenceSerializer(
+        many=True, allow_null=True, help_text="null without the right to see fences"
+    )
 
 
 @extend_schema(
@@ -83,8 +98,9 @@ class FleetOverlaysView(APIView):
     vessel was silent longer than `gap_s`; simplified to a few hundred points. The mission is
     the vessel's newest acknowledged `mission` command (else its newest queued or sent one):
     its waypoints in order and how it ends; the waypoint the vessel is heading to is in its
-    fixes' readings (`waypoint` of `waypoints`). Poll it seldom: the fleet poll's last fixes
-    extend the trails in between.
+    fixes' readings (`waypoint` of `waypoints`). The fences of the fleet's vessels and those
+    every vessel keeps come with them. Poll it seldom: the fleet poll's last fixes extend the
+    trails in between.
     """
 
     queryset = Vessel.objects.none()  # for the model permission check (view_vessel)
@@ -101,16 +117,62 @@ class FleetOverlaysView(APIView):
             user.has_perm("commands.view_command"),
         )
         now = dt.datetime.now(dt.UTC)
-        vessels = fleet_overlays(
-            fleet_vessels(), now=now, minutes=minutes, trails=trails, missions=missions
-        )
-        head = {"minutes": minutes, "trails": trails, "missions": missions}
+        fleet = list(fleet_vessels())
+        vessels = fleet_overlays(fleet, now=now, minutes=minutes, trails=trails, missions=missions)
+        fences = fence_entries(fleet) if user.has_perm("vessels.view_fence") else None
+        head = {"minutes": minutes, "trails": trails, "missions": missions, "fences": fences}
         encoded = json.dumps({**head, "vessels": vessels}, separators=(",", ":"), sort_keys=True)
         etag = '"' + hashlib.sha256(encoded.encode()).hexdigest()[:32] + '"'
         if etag_matches(request.headers.get("If-None-Match"), etag):
             response = HttpResponse(status=304)
         else:
             body = '{"server_time":"%s",%s' % (now.isoformat(), encoded[1:])  # noqa: UP031
+            response = HttpResponse(body, content_type="application/json")
+        response["ETag"] = etag
+        response["Cache-Control"] = "private, no-cache"
+        return response
+
+
+class _FleetAlertSerializer(serializers.Serializer):
+    id = serializers.IntegerField()
+    vessel = serializers.SlugField()
+    rule = serializers.CharField()
+    kind = serializers.CharField()
+    state = serializers.ChoiceField(choices=["open", "acknowledged"])
+    opened_at = serializers.DateTimeField()
+    acknowledged_at = serializers.DateTimeField(allow_null=True)
+    acknowledged_by = serializers.CharField(allow_blank=True)
+    detail = serializers.CharField(allow_blank=True)
+    value = serializers.FloatField(allow_null=True)
+
+
+class FleetAlertsSerializer(serializers.Serializer):
+    """The fleet map's open alerts (documentation only: the view writes the JSON itself)."""
+
+    server_time = serializers.DateTimeField()
+    alerts = _FleetAlertSerializer(many=True)
+
+
+@extend_schema(
+    parameters=[OpenApiParameter("If-None-Match", str, OpenApiParameter.HEADER)],
+    responses={200: FleetAlertsSerializer, 304: OpenApiResponse(description="Not modified")},
+    tags=["operator"],
+)
+class FleetAlertsView(APIView):
+    """The active fleet's open and acknowledged alerts, newest first, with an ETag: the fleet
+    map polls it as often as the fleet, and badges each vessel with its open alerts."""
+
+    queryset = Alert.objects.none()  # for the model permission check (view_alert)
+    permission_classes = [ModelPermissions, CanViewVessels]
+
+    def get(self, request: Request) -> HttpResponse:
+        now = dt.datetime.now(dt.UTC)
+        encoded = json.dumps(active_alerts(fleet_vessels()), separators=(",", ":"), sort_keys=True)
+        etag = '"' + hashlib.sha256(encoded.encode()).hexdigest()[:32] + '"'
+        if etag_matches(request.headers.get("If-None-Match"), etag):
+            response = HttpResponse(status=304)
+        else:
+            body = '{"server_time":"%s","alerts":%s}' % (now.isoformat(), encoded)  # noqa: UP031
             response = HttpResponse(body, content_type="application/json")
         response["ETag"] = etag
         response["Cache-Control"] = "private, no-cache"

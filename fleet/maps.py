@@ -25,6 +25,7 @@ from vessels.models import OVERDUE_PERIODS, Vessel, VesselKind
 
 SLUG = "__slug__"  # placeholder the scripts replace with a vessel's slug
 UID = "__uid__"
+ALERT_ID = "__id__"
 # The fleet map's side panel lists this many of the vessel's newest commands.
 PANEL_COMMANDS = 8
 # The track page opens on the vessel's last run of reports, this long at most and at least.
@@ -69,6 +70,10 @@ def can_view_overlays(user: AbstractBaseUser) -> bool:
     )
 
 
+def can_view_alerts(user: AbstractBaseUser) -> bool:
+    return can_view_fleet(user) and user.has_perm("alerts.view_alert")
+
+
 def trail_choices(default: int) -> list[int]:
     """The trail lengths the map offers (minutes; 0 = none), the configured one among them."""
     return sorted({0, 15, 60, 180, 720, default})
@@ -98,6 +103,10 @@ def fleet_map_config(request: HttpRequest) -> dict[str, Any]:
         "canCommand": can_command,
         "canCancel": user.has_perm("commands.change_command"),
         "canViewCommands": user.has_perm("commands.view_command"),
+        # Open alerts (issue 19), polled with the fleet: badges, the panel's list, Acknowledge.
+        "alertsUrl": reverse("fleet-alerts") if can_view_alerts(user) else "",
+        "ackUrl": reverse("alert-ack", kwargs={"pk": 987654321}).replace("987654321", ALERT_ID),
+        "canAck": user.has_perm("alerts.change_alert"),
         "csrfToken": get_token(request),
         "channels": page_channels(),
         # Status names from the contract, not a copy in the script: an unfinished command is

@@ -5,8 +5,9 @@ from django.urls import include, path
 from drf_spectacular.views import SpectacularSwaggerView
 from rest_framework.permissions import IsAuthenticated
 
+from alerts.api import urls as alert_urls
 from commands.api import urls as command_urls
-from fleet.console_api import FleetOverlaysView
+from fleet.console_api import FleetAlertsView, FleetOverlaysView
 from fleet.schema import SchemaView
 from sms.api import urls as sms_urls
 from telemetry.api import urls as telemetry_urls
@@ -19,8 +20,10 @@ api_v1 = [
     path("", include(telemetry_urls.urlpatterns)),
     path("", include(command_urls.urlpatterns)),
     path("", include(sms_urls.urlpatterns)),
+    path("", include(alert_urls.urlpatterns)),
     path("fleet/overlays/", FleetOverlaysView.as_view(), name="fleet-overlays"),
     path("", include("audit.api.urls")),
+    path("fleet/alerts/", FleetAlertsView.as_view(), name="fleet-alerts"),
     path("schema/", SchemaView.as_view(permission_classes=[IsAuthenticated]), name="schema"),
     path(
         "docs/",

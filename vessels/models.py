@@ -10,6 +10,8 @@ from django.db.models import Q
 
 from edge_client.contract import fix as fix_shape
 from edge_client.contract.kinds import MAVLINK, WAVE_GLIDER
+from vessels import fences
+from vessels.fences import FenceError
 from vessels.missions import (
     DEFAULT_CRUISE_SPEED_MPS,
     HOLD_MAX_S,
@@ -247,3 +249,15 @@ class Fence(models.Model):
 
     def __str__(self) -> str:
         return self.name
+
+    def clean(self) -> None:
+        # One shape for every way in (map, API, file): vessels.fences.
+        try:
+            self.geometry, self.radius_m = fences.clean(self.geometry, self.radius_m)
+        except FenceError as exc:
+            field = "radius_m" if "radius_m" in exc.message else "geometry"
+            raise ValidationError({field: exc.problems}) from None
+
+    @property
+    def shape(self) -> str:
+        return fences.describe(self.geometry, self.radius_m)

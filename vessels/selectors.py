@@ -6,7 +6,7 @@ from django.db.models import QuerySet
 from django.shortcuts import get_object_or_404
 
 from vessels import sql
-from vessels.models import Mission, Vessel, VesselKey
+from vessels.models import Fence, Mission, Vessel, VesselKey
 
 
 def vessel_list() -> QuerySet[Vessel]:
@@ -53,3 +53,12 @@ def missions_visible_to(user: Any) -> QuerySet[Mission]:
     if not user.has_perm("vessels.view_vessel"):
         missions = missions.filter(vessel__isnull=True)
     return missions.order_by("name", "pk")
+
+
+def fences_visible_to(user: Any) -> QuerySet[Fence]:
+    """The fences ``user`` may see: those every vessel keeps, and those of vessels they may
+    view (as missions_visible_to)."""
+    fences = Fence.objects.select_related("vessel")
+    if not user.has_perm("vessels.view_vessel"):
+        fences = fences.filter(vessel__isnull=True)
+    return fences.order_by("name", "pk")

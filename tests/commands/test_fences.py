@@ -150,17 +150,21 @@ def test_a_set_too_big_for_the_autopilot_is_refused_and_nothing_is_written(
     vessel_a: Vessel,
 ) -> None:
     ring = [list(offset(-32, 115.7, i * 360 / 90, 2000))[::-1] for i in range(90)]
-    big = make_fence("Coast", vessel_a, geometry={"type": "Polygon", "coordinates": [ring]})
+    big = make_fence(
+        "Coast", vessel_a, geometry={"type": "Polygon", "coordinates": [ring + ring[:1]]}
+    )
     with pytest.raises(CatalogError, match="need 90 autopilot items and 727 bytes"):
         fence_send(fence=big)
     assert not Command.objects.exists() and not AuditEntry.objects.exists()
 
 
 def test_a_stored_fence_that_cannot_be_sent_says_which(vessel_a: Vessel) -> None:
-    bad = make_fence("Scribble", vessel_a, geometry={"type": "Polygon", "coordinates": [
-        [[0, 0], [1, 1], [0, 1], [1, 0], [0, 0]]]})  # fmt: skip
-    with pytest.raises(CatalogError, match="fence 'Scribble': the polygon crosses itself"):
-        fence_send(fence=bad)
+    # The shore watches a polygon across 180° correctly; the autopilot cannot hold one.
+    dateline = make_fence("Dateline", vessel_a, geometry={"type": "Polygon", "coordinates": [
+        [[179.5, -17], [-179.5, -17], [-179.5, -16], [179.5, -16], [179.5, -17]]]})  # fmt: skip
+    with pytest.raises(CatalogError, match=r"fence \d+ \(Dateline\): the polygon crosses the 180"):
+        fence_send(fence=dateline)
+    assert not Command.objects.exists()
 
 
 # -- the admin's command form ---------------------------------------------------------------

@@ -29,16 +29,18 @@ from django.contrib.auth.models import User
 from django.core.handlers.wsgi import WSGIHandler
 from django.core.signals import request_finished, request_started
 from django.db import close_old_connections, connection
+from django.utils import timezone
 from drf_spectacular.generators import SchemaGenerator
 from drf_spectacular.renderers import OpenApiJsonRenderer
 from hypothesis import HealthCheck, settings
 from schemathesis.specs.openapi.checks import positive_data_acceptance
 
+from alerts.models import Alert, AlertRule, NotificationChannel
 from commands.models import Command
 from commands.services import command_claim_open
 from operators.services import operator_token_issue
 from tests.conftest import make_user
-from vessels.models import Mission, Vessel
+from vessels.models import Fence, Mission, Vessel
 from vessels.services import mission_write
 
 EXAMPLES = int(os.environ.get("SHORESIDE_SCHEMATHESIS_EXAMPLES", "20"))
@@ -54,7 +56,10 @@ OPERATOR_PERMS = [
     "commands.add_command",
     "commands.change_command",
     "audit.view_auditentry",
-]
+    *(f"alerts.{verb}_{model}" for verb in ("view", "add", "change", "delete")
+      for model in ("alertrule", "alert", "notificationchannel")),
+    *(f"vessels.{verb}_fence" for verb in ("view", "add", "change", "delete")),
+]  # fmt: skip
 
 
 def load_schema() -> dict[str, Any]:
@@ -89,15 +94,37 @@ class Credentials:
         case.headers = {**(case.headers or {}), "Authorization": data}
 
 
+# The {id} of the paths under each prefix (the mission's elsewhere), set by `existing`.
+ID_BY_PATH: dict[str, str] = {}
+
+
 @pytest.fixture
 def existing(vessel_a: Vessel, command_a: Command, reported: Vessel) -> dict[str, str]:
-    """Boat A with a fix, its command handed over by a poll (so an ack can land), a mission."""
+    """Boat A with a fix, its command handed over by a poll (so an ack can land), a mission;
+    a fence, an alert rule with an open alert on boat A, a notification channel (their ids by
+    path in ID_BY_PATH), so each operation is reached past its 404."""
     command_claim_open(vessel=vessel_a)
     mission = mission_write(
         mission=Mission(),
         fields={"name": "Harbour loop", "vessel": vessel_a},
         items=[{"lat": -31.95, "lon": 115.86}, {"lat": -31.96, "lon": 115.87}],
     )
+    ring = [[115.86, -31.95], [115.87, -31.95], [115.87, -31.96], [115.86, -31.95]]
+    fence = Fence.objects.create(
+        name="Harbour", vessel=vessel_a, geometry={"type": "Polygon", "coordinates": [ring]}
+    )
+    rule = AlertRule.objects.create(name="Low", kind="battery", threshold=11.5)
+    alert = Alert.objects.create(
+        rule=rule, vessel=vessel_a, kind="battery", opened_at=timezone.now()
+    )
+    channel = NotificationChannel.objects.create(name="Ops", kind="email", target="o@example.org")
+    for prefix, pk in (
+        ("/api/v1/fences/", fence.pk),
+        ("/api/v1/alert-rules/", rule.pk),
+        ("/api/v1/alerts/", alert.pk),
+        ("/api/v1/notification-channels/", channel.pk),
+    ):
+        ID_BY_PATH[prefix] = str(pk)
     return {"slug": vessel_a.slug, "uid": str(command_a.uid), "id": str(mission.pk)}
 
 
@@ -139,9 +166,20 @@ def credentials(
 # Where validity depends on more than the request, a valid request may still be refused
 # with a 400 naming why: a command's kind and params against the catalog for this vessel's
 # kind, and an imported file's content.
+# A fence's geometry (a closed ring of distinct vertices), an alert rule's fields by kind, a
+# channel's target by kind and an imported fence file are the services' to judge, past what a
+# schema can say; an alert list's `cursor` is one the list gave (any other string is a 400).
 VALID_BY_STATE = {
     "POST /api/v1/vessels/{slug}/commands/",
     "POST /api/v1/missions/import/",
+    "POST /api/v1/fences/",
+    "PATCH /api/v1/fences/{id}/",
+    "POST /api/v1/fences/import/",
+    "POST /api/v1/fences/{id}/send/",
+    "POST /api/v1/alert-rules/",
+    "PATCH /api/v1/alert-rules/{id}/",
+    "POST /api/v1/notification-channels/",
+    "GET /api/v1/alerts/",
 }
 VALID_RANGE = {"from": "2026-11-23T09:00:00Z", "to": "2026-11-23T11:00:00Z"}
 VALID_TIME = "2026-11-23T10:00:00Z"
@@ -150,8 +188,10 @@ VALID_TIME = "2026-11-23T10:00:00Z"
 def follow_the_rules(case: Any, existing: dict[str, str]) -> None:
     """Make a valid (positive) case follow the rules above; invalid ones stay as generated."""
     if case.path_parameters:
+        ids = [pk for prefix, pk in ID_BY_PATH.items() if case.path.startswith(prefix)]
+        named = {**existing, **({"id": ids[0]} if ids else {})}
         case.path_parameters = {
-            name: existing.get(name, value) for name, value in case.path_parameters.items()
+            name: named.get(name, value) for name, value in case.path_parameters.items()
         }
     if case.query:
         query = dict(case.query)

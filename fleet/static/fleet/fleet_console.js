@@ -138,6 +138,7 @@
       if (o.mission) { self.missions[o.slug] = o.mission; }
     });
     this.version += 1;
+    S.fleetConsole.drawFences(this, data.fences);
     this.drawAll();
     this.fleet.overlaysChanged();
   };

@@ -35,6 +35,7 @@
       var row = {
         dot: el("span", { class: "status-dot" }),
         name: el("b"),
+        alerts: el("span", { class: "list-alerts" }),
         progress: el("span", { class: "muted small wp-progress" }),
         state: el("td", { class: "state" }),
         age: el("span", { class: "age", "data-suffix": "" }),
@@ -44,7 +45,7 @@
         "data-slug": slug, tabindex: "0", onclick: choose,
         onkeydown: function (e) { if (e.key === "Enter") { choose(); } },
       }, [
-        el("td", { class: "name" }, [row.dot, row.name, row.progress]),
+        el("td", { class: "name" }, [row.dot, row.name, row.alerts, row.progress]),
         row.state,
         el("td", { class: "fix-age" }, [row.age]),
         row.battery,
@@ -68,6 +69,7 @@
     set(row.tr, "title", "Show " + v.name);
     set(row.dot, "className", "status-dot status-" + st.status.replace(" ", "-"));
     set(row.name, "textContent", v.name);
+    set(row.alerts, "innerHTML", fleet.alerts.badgeHtml(slug));
     var progress = fleet.overlays.progressText(slug);
     set(row.progress, "textContent", progress ? " " + progress.replace("waypoint ", "wp ").replace(" of ", "/") : "");
     set(row.progress, "title", progress || "");

@@ -42,6 +42,7 @@
     this.listBox = this.panel.appendChild(el("div", { class: "vessel-list-box" }));
     this.body = this.panel.appendChild(el("div", { class: "panel-body" }));
     this.head = this.body.appendChild(el("div", { class: "panel-head" }));
+    this.alertsBox = this.body.appendChild(el("div", { class: "panel-alerts" }));
     this.missionBox = this.body.appendChild(el("div", { class: "panel-mission-box" }));
     this.actionsBox = this.body.appendChild(el("div", { class: "panel-actions" }));
     this.commandsBox = this.body.appendChild(el("div", { class: "panel-commands" }));
@@ -53,6 +54,7 @@
     window.addEventListener("resize", function () { self.fitWindow(); });
     this.fitWindow();
     this.overlays = new S.fleetConsole.Overlays(this);
+    this.alerts = new S.fleetConsole.Alerts(this);
     this.list = new S.fleetConsole.VesselList(this, this.listBox);
     document.addEventListener("keydown", function (e) {
       if (e.key === "Escape") { self.cancelPick(); }
@@ -190,7 +192,7 @@
     ]);
     return (
       '<svg class="vessel-arrow" viewBox="-13 -13 26 26" width="26" height="26" style="fill:' + colour +
-      '">' + shape + "</svg>" + label.outerHTML
+      '">' + shape + "</svg>" + this.alerts.badgeHtml(v.slug) + label.outerHTML
     );
   };
 
@@ -215,6 +217,7 @@
     })]);
     if (key !== this.headKey) { this.headKey = key; this.renderHead(); }
     this.list.render();
+    this.alerts.renderPanel(this.alertsBox, this.selected);
     this.renderMission();
     this.updateAges();
     S.fleetConsole.declutter(this);
