@@ -1,0 +1,296 @@
+"""Retention (issue 19 item 6): thin old fixes in small batches that never hold up ingest.
+
+Fixes older than FIX_RETENTION_DAYS are thinned to the first and last fix of each
+FIX_THIN_INTERVAL_S (telemetry/thinning.py), keeping every fix another record points at (an
+alert's opening fix) and every fix received in the last RECEIVED_GRACE_S. Run by
+`manage.py prune_fixes` and by the alerts loop when FIX_RETENTION_DAYS is set.
+
+Why it never holds up a boat's post:
+- the fixes are read outside any transaction, READ_ROWS at a time (keyset on the (vessel, time)
+  index), and deleted in transactions of at most DELETE_ROWS_MAX rows, fewer when one runs
+  longer than HOLD_TARGET_S (SQLite has one writer: a post waits for the whole transaction);
+- between two transactions it rests at least as long as it held the database, and never less
+  than PAUSE_S, so a waiting post always gets its turn;
+- every transaction stands alone: stopped anywhere, the next run carries on (FixThinning keeps
+  how far each vessel is thinned), and thinning again changes nothing.
+
+The track overview stays right: each transaction marks the minutes it deletes from out of date
+(TrackDirty, as the admin's delete does), so reads take those minutes from the fixes left until
+`rebuild_track_overview --loop` rebuilds their buckets from them. The overview then summarises
+the fixes that are stored, as the exports and the fix list do: one story at every zoom.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import logging
+import time
+from collections.abc import Callable, Collection, Iterable, Sequence
+from dataclasses import dataclass, field
+
+from django.conf import settings
+from django.db import connection, transaction
+from django.db.models import BooleanField, ExpressionWrapper, Q
+
+from telemetry import sql
+from telemetry.models import Fix, FixThinning
+from telemetry.thinning import Thinner, interval_start
+from vessels.models import Vessel
+
+logger = logging.getLogger(__name__)
+
+# Fixes read per query: memory stays flat whatever the history (an hour and a half at 1 Hz).
+READ_ROWS = 5000
+# Fixes deleted per transaction: at most DELETE_ROWS_MAX, halved (down to DELETE_ROWS_MIN)
+# while a transaction holds the database longer than HOLD_TARGET_S, grown back when quicker.
+DELETE_ROWS_MAX = 1000
+DELETE_ROWS_MIN = 25
+DELETE_ROWS_START = 200
+HOLD_TARGET_S = 0.02
+# The least rest between two transactions. SQLite's busy handler (sqliteDefaultBusyCallback)
+# lets a waiting writer try again after 1, 2, 5, 10, 15, 20, 25, 25, 25, 50 … ms: a gap longer
+# than 25 ms is met by every writer that has waited less than ~180 ms. PostgreSQL's posts wait
+# on no lock thinning takes (it touches old rows and old minutes only): a breath.
+PAUSE_S = {"sqlite": 0.03}
+PAUSE_S_DEFAULT = 0.002
+# A fix received this recently is not thinned, however old its time: the alerts loop looks at
+# the fixes that arrived since its last pass, and an alert it opens on one keeps that fix.
+RECEIVED_GRACE_S = 3600
+
+# A vessel is thinned an hour at a time at least: called every minute (the alerts loop), a
+# prune does not write a mark per vessel per minute.
+STEP_S = 3600
+
+# Given fix ids, the ones to keep for the caller's own reasons.
+KeepFn = Callable[[Sequence[int]], Collection[int]]
+
+
+@dataclass
+class VesselPrune:
+    """One vessel's part of a prune: fixes read (older than the cutoff) and deleted (or, in a
+    dry run, that would be)."""
+
+    slug: str
+    examined: int = 0
+    deleted: int = 0
+
+    @property
+    def kept(self) -> int:
+        return self.examined - self.deleted
+
+
+@dataclass
+class PruneResult:
+    cutoff: dt.datetime | None  # None: retention is off (FIX_RETENTION_DAYS=0)
+    interval_s: int
+    dry_run: bool
+    vessels: list[VesselPrune] = field(default_factory=list)
+    # False: stopped early (max_seconds, stop); the next call carries on.
+    finished: bool = True
+    transactions: int = 0
+    longest_hold_s: float = 0.0
+
+    @property
+    def deleted(self) -> int:
+        return sum(v.deleted for v in self.vessels)
+
+    @property
+    def examined(self) -> int:
+        return sum(v.examined for v in self.vessels)
+
+
+class _Stopped(Exception):
+    pass
+
+
+def fixes_prune(
+    *,
+    now: dt.datetime,
+    older_than_days: int | None = None,
+    interval_s: int | None = None,
+    dry_run: bool = False,
+    keep: KeepFn | None = None,
+    vessels: Iterable[Vessel] | None = None,
+    rescan: bool = False,
+    max_seconds: float | None = None,
+    stop: Callable[[], bool] | None = None,
+    sleep: Callable[[float], None] = time.sleep,
+) -> PruneResult:
+    """Thin every vessel's fixes older than ``older_than_days`` (default FIX_RETENTION_DAYS;
+    0 does nothing) to the first and last of each ``interval_s`` (FIX_THIN_INTERVAL_S).
+
+    1. The cutoff is ``now`` less the retention, down to a whole interval: only whole
+       intervals are thinned, and a younger fix is never read.
+    2. Per vessel, from where the last prune stopped (FixThinning; from its first fix with
+       ``rescan``, or after a change of interval), the fixes are read in time order, READ_ROWS
+       at a time, and fed to a Thinner; kept for their own sake are the fixes another record
+       points at (fixes_referenced), those ``keep`` names, and those received since
+       ``now`` - RECEIVED_GRACE_S.
+    3. What the Thinner gives up is deleted in short transactions (see the module's notes),
+       each marking its minutes out of date for the track overview; then the vessel's mark
+       moves on. A dry run deletes nothing and moves no mark.
+    4. ``max_seconds`` or ``stop()`` end the prune between two reads; the result says
+       ``finished=False`` and the next call carries on.
+    """
+    days = settings.FIX_RETENTION_DAYS if older_than_days is None else older_than_days
+    interval = interval_s or settings.FIX_THIN_INTERVAL_S
+    if days <= 0:
+        return PruneResult(cutoff=None, interval_s=interval, dry_run=dry_run)
+    cutoff = sql.from_epoch(interval_start((now - dt.timedelta(days=days)).timestamp(), interval))
+    result = PruneResult(cutoff=cutoff, interval_s=interval, dry_run=dry_run)
+    deadline = None if max_seconds is None else time.monotonic() + max_seconds
+
+    def should_stop() -> bool:
+        return (stop is not None and stop()) or (
+            deadline is not None and time.monotonic() > deadline
+        )
+
+    pacer = _Pacer(sleep=sleep, pause_s=PAUSE_S.get(connection.vendor, PAUSE_S_DEFAULT))
+    job = _Job(cutoff, interval, now - dt.timedelta(seconds=RECEIVED_GRACE_S), keep, pacer)
+    for vessel in Vessel.objects.order_by("pk") if vessels is None else vessels:
+        report = VesselPrune(vessel.slug)
+        try:
+            job.vessel(vessel, report, dry_run=dry_run, rescan=rescan, should_stop=should_stop)
+        except _Stopped:
+            result.finished = False
+        if report.examined:
+            result.vessels.append(report)
+            logger.info(
+                "prune_fixes: %s: %d fixes older than %s, %s %d",
+                vessel.slug, report.examined, cutoff.isoformat(),
+                "would delete" if dry_run else "deleted", report.deleted,
+            )  # fmt: skip
+        if not result.finished:
+            break
+    result.transactions, result.longest_hold_s = pacer.transactions, pacer.longest
+    return result
+
+
+def fixes_referenced(ids: Sequence[int]) -> set[int]:
+    """The fixes among ``ids`` that another record points at (an alert's opening fix, today).
+
+    The foreign keys are found in Django's model registry, not imported: telemetry sits below
+    the apps that point at fixes (tests/fleet/test_layers.py) and keeps what they point at
+    without knowing them, and a new one (an audit entry, a report) is covered as it is added.
+    """
+    found: set[int] = set()
+    for model, name in _pointers_to_fixes():
+        rows = model._base_manager.filter(**{f"{name}__in": ids}).values_list(name, flat=True)
+        found.update(r for r in rows if r is not None)
+    return found
+
+
+def _pointers_to_fixes() -> list[tuple[type, str]]:
+    """(model, field name) of every foreign key, one-to-one or many-to-many to Fix."""
+    return [
+        (rel.related_model, rel.field.name)
+        for rel in Fix._meta.get_fields(include_hidden=True)
+        if rel.auto_created and not rel.concrete and rel.is_relation
+    ]
+
+
+@dataclass
+class _Pacer:
+    """Sizes the delete transactions and rests between them (module notes)."""
+
+    sleep: Callable[[float], None]
+    pause_s: float
+    rows: int = DELETE_ROWS_START
+    transactions: int = 0
+    longest: float = 0.0
+
+    def held(self, seconds: float) -> None:
+        self.transactions += 1
+        self.longest = max(self.longest, seconds)
+        if seconds > HOLD_TARGET_S:
+            self.rows = max(DELETE_ROWS_MIN, self.rows // 2)
+        elif seconds < HOLD_TARGET_S / 2:
+            self.rows = min(DELETE_ROWS_MAX, self.rows + self.rows // 4 + 1)
+        self.sleep(max(self.pause_s, seconds))
+
+
+@dataclass
+class _Job:
+    cutoff: dt.datetime
+    interval_s: int
+    received_before: dt.datetime
+    keep: KeepFn | None
+    pacer: _Pacer
+
+    def vessel(
+        self,
+        vessel: Vessel,
+        report: VesselPrune,
+        *,
+        dry_run: bool,
+        rescan: bool,
+        should_stop: Callable[[], bool],
+    ) -> None:
+        """Thin one vessel's fixes before the cutoff, from its mark; raise _Stopped if told."""
+        mark = None if rescan else FixThinning.objects.filter(vessel=vessel).first()
+        after = mark.thinned_before if mark and mark.interval_s == self.interval_s else None
+        if after is not None and (self.cutoff - after).total_seconds() < STEP_S:
+            return
+        thinner = Thinner(self.interval_s)
+        times: dict[int, dt.datetime] = {}
+        inclusive = True  # the first read starts at the mark (an interval's start), the next after
+        while True:
+            rows = self._read(vessel.pk, after, inclusive)
+            if not rows:
+                break
+            ids = [pk for pk, _, _ in rows]
+            kept = fixes_referenced(ids) | set(self.keep(ids) if self.keep else ())
+            times.update((pk, t) for pk, t, _ in rows)
+            doomed = thinner.feed((pk, t.timestamp(), new or pk in kept) for pk, t, new in rows)
+            report.examined += len(rows)
+            report.deleted += len(doomed)
+            if not dry_run:
+                self._delete(vessel.pk, doomed, times)
+                self._save_mark(vessel, sql.from_epoch(thinner.open_start))  # type: ignore[arg-type]
+            times = {thinner.pending: times[thinner.pending]} if thinner.pending else {}
+            after, inclusive = rows[-1][1], False
+            if len(rows) < READ_ROWS:
+                break
+            if should_stop():
+                raise _Stopped
+        if not dry_run:
+            self._save_mark(vessel, self.cutoff)  # the pending fix, if any, was its interval's last
+
+    def _read(
+        self, vessel_id: int, after: dt.datetime | None, inclusive: bool
+    ) -> list[tuple[int, dt.datetime, bool]]:
+        """The next READ_ROWS fixes before the cutoff, (id, time, received too recently)."""
+        fixes = Fix.objects.filter(vessel_id=vessel_id, recorded_at__lt=self.cutoff)
+        if after is not None:
+            fixes = (
+                fixes.filter(recorded_at__gte=after)
+                if inclusive
+                else fixes.filter(recorded_at__gt=after)
+            )
+        recent = ExpressionWrapper(
+            Q(received_at__gte=self.received_before), output_field=BooleanField()
+        )
+        rows = fixes.order_by("recorded_at").annotate(recent=recent)
+        return [
+            (pk, t, bool(r))
+            for pk, t, r in rows.values_list("pk", "recorded_at", "recent")[:READ_ROWS]
+        ]
+
+    def _delete(self, vessel_id: int, doomed: list[int], times: dict[int, dt.datetime]) -> None:
+        at = 0
+        while at < len(doomed):
+            chunk = doomed[at : at + self.pacer.rows]
+            at += len(chunk)
+            started = time.perf_counter()
+            with transaction.atomic():
+                sql.mark_dirty(vessel_id, [times[pk] for pk in chunk])
+                # The ORM's delete: it also clears any pointer to a fix made since it was read
+                # (SET_NULL), the rule the pointing model chose. only("pk"): it reads no more.
+                Fix.objects.filter(pk__in=chunk).only("pk").delete()
+            self.pacer.held(time.perf_counter() - started)
+
+    def _save_mark(self, vessel: Vessel, thinned_before: dt.datetime) -> None:
+        FixThinning.objects.update_or_create(
+            vessel=vessel,
+            defaults={"interval_s": self.interval_s, "thinned_before": thinned_before},
+        )
