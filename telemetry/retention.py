@@ -7,10 +7,10 @@ alert's opening fix) and every fix received in the last RECEIVED_GRACE_S. Run by
 
 Why it never holds up a boat's post:
 - the fixes are read outside any transaction, READ_ROWS at a time (keyset on the (vessel, time)
-  index), and deleted in transactions of at most DELETE_ROWS_MAX rows, fewer when one runs
-  longer than HOLD_TARGET_S (SQLite has one writer: a post waits for the whole transaction);
+  index), and deleted in transactions sized to hold the database briefly (PACE: SQLite has one
+  writer, and a post waits for the whole transaction), one DELETE by id each (sql.fixes_delete);
 - between two transactions it rests at least as long as it held the database, and never less
-  than PAUSE_S, so a waiting post always gets its turn;
+  than the PACE's pause, so a waiting post always gets its turn;
 - every transaction stands alone: stopped anywhere, the next run carries on (FixThinning keeps
   how far each vessel is thinned), and thinning again changes nothing.
 
@@ -29,7 +29,7 @@ from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 
 from django.conf import settings
-from django.db import connection, transaction
+from django.db import IntegrityError, connection, transaction
 from django.db.models import BooleanField, ExpressionWrapper, Q
 
 from telemetry import sql
@@ -41,18 +41,35 @@ logger = logging.getLogger(__name__)
 
 # Fixes read per query: memory stays flat whatever the history (an hour and a half at 1 Hz).
 READ_ROWS = 5000
-# Fixes deleted per transaction: at most DELETE_ROWS_MAX, halved (down to DELETE_ROWS_MIN)
-# while a transaction holds the database longer than HOLD_TARGET_S, grown back when quicker.
-DELETE_ROWS_MAX = 1000
+# Fixes deleted per transaction start at DELETE_ROWS_START, are halved (down to DELETE_ROWS_MIN)
+# while a transaction holds the database longer than its Pace's hold_s, and grow back (up to
+# max_rows) while it is quicker.
 DELETE_ROWS_MIN = 25
 DELETE_ROWS_START = 200
-HOLD_TARGET_S = 0.02
-# The least rest between two transactions. SQLite's busy handler (sqliteDefaultBusyCallback)
-# lets a waiting writer try again after 1, 2, 5, 10, 15, 20, 25, 25, 25, 50 … ms: a gap longer
-# than 25 ms is met by every writer that has waited less than ~180 ms. PostgreSQL's posts wait
-# on no lock thinning takes (it touches old rows and old minutes only): a breath.
-PAUSE_S = {"sqlite": 0.03}
-PAUSE_S_DEFAULT = 0.002
+
+
+@dataclass(frozen=True)
+class Pace:
+    """How hard a prune leans on the database: rows per transaction at most, how long one
+    transaction should hold it, and the least rest after one (never less than the hold)."""
+
+    max_rows: int
+    hold_s: float
+    pause_s: float
+
+
+PACE = {
+    # One writer: a post waits for the whole transaction, so it is kept short. The rest: SQLite's
+    # busy handler (sqliteDefaultBusyCallback) lets a waiting writer try again after 1, 2, 5,
+    # 10, 15, 20, 25, 25, 25, 50 … ms, so a gap over 25 ms lets in every writer that has waited
+    # less than ~180 ms.
+    "sqlite": Pace(max_rows=2000, hold_s=0.02, pause_s=0.03),
+    # Row locks: a post waits on no lock thinning takes (old rows, old minutes). A short
+    # transaction's time is mostly its COMMIT's flush, so bigger ones cost little more; the rest
+    # (as long as the hold) leaves the disk to the posts half the time.
+    "postgresql": Pace(max_rows=5000, hold_s=0.1, pause_s=0.005),
+}
+
 # A fix received this recently is not thinned, however old its time: the alerts loop looks at
 # the fixes that arrived since its last pass, and an alert it opens on one keeps that fix.
 RECEIVED_GRACE_S = 3600
@@ -145,7 +162,7 @@ def fixes_prune(
             deadline is not None and time.monotonic() > deadline
         )
 
-    pacer = _Pacer(sleep=sleep, pause_s=PAUSE_S.get(connection.vendor, PAUSE_S_DEFAULT))
+    pacer = _Pacer(sleep=sleep, pace=PACE.get(connection.vendor, PACE["postgresql"]))
     job = _Job(cutoff, interval, now - dt.timedelta(seconds=RECEIVED_GRACE_S), keep, pacer)
     for vessel in Vessel.objects.order_by("pk") if vessels is None else vessels:
         report = VesselPrune(vessel.slug)
@@ -191,10 +208,10 @@ def _pointers_to_fixes() -> list[tuple[type, str]]:
 
 @dataclass
 class _Pacer:
-    """Sizes the delete transactions and rests between them (module notes)."""
+    """Sizes the delete transactions and rests between them (module notes, Pace)."""
 
     sleep: Callable[[float], None]
-    pause_s: float
+    pace: Pace
     rows: int = DELETE_ROWS_START
     transactions: int = 0
     longest: float = 0.0
@@ -202,11 +219,11 @@ class _Pacer:
     def held(self, seconds: float) -> None:
         self.transactions += 1
         self.longest = max(self.longest, seconds)
-        if seconds > HOLD_TARGET_S:
+        if seconds > self.pace.hold_s:
             self.rows = max(DELETE_ROWS_MIN, self.rows // 2)
-        elif seconds < HOLD_TARGET_S / 2:
-            self.rows = min(DELETE_ROWS_MAX, self.rows + self.rows // 4 + 1)
-        self.sleep(max(self.pause_s, seconds))
+        elif seconds < self.pace.hold_s / 2:
+            self.rows = min(self.pace.max_rows, self.rows + self.rows // 4 + 1)
+        self.sleep(max(self.pace.pause_s, seconds))
 
 
 @dataclass
@@ -239,13 +256,19 @@ class _Job:
             if not rows:
                 break
             ids = [pk for pk, _, _ in rows]
-            kept = fixes_referenced(ids) | set(self.keep(ids) if self.keep else ())
+            # The fixes pointed at are left out where they are deleted, under the lock (a
+            # Thinner that takes one for an ordinary fix gives the same survivors); a dry run
+            # leaves them out here.
+            kept = set(self.keep(ids)) if self.keep else set()
+            if dry_run:
+                kept |= fixes_referenced(ids)
             times.update((pk, t) for pk, t, _ in rows)
             doomed = thinner.feed((pk, t.timestamp(), new or pk in kept) for pk, t, new in rows)
             report.examined += len(rows)
-            report.deleted += len(doomed)
-            if not dry_run:
-                self._delete(vessel.pk, doomed, times)
+            if dry_run:
+                report.deleted += len(doomed)
+            else:
+                report.deleted += self._delete(vessel.pk, doomed, times)
                 self._save_mark(vessel, sql.from_epoch(thinner.open_start))  # type: ignore[arg-type]
             times = {thinner.pending: times[thinner.pending]} if thinner.pending else {}
             after, inclusive = rows[-1][1], False
@@ -276,18 +299,32 @@ class _Job:
             for pk, t, r in rows.values_list("pk", "recorded_at", "recent")[:READ_ROWS]
         ]
 
-    def _delete(self, vessel_id: int, doomed: list[int], times: dict[int, dt.datetime]) -> None:
-        at = 0
+    def _delete(self, vessel_id: int, doomed: list[int], times: dict[int, dt.datetime]) -> int:
+        """Delete ``doomed`` but the fixes pointed at, a short transaction at a time; how many."""
+        deleted, at = 0, 0
         while at < len(doomed):
             chunk = doomed[at : at + self.pacer.rows]
             at += len(chunk)
             started = time.perf_counter()
-            with transaction.atomic():
-                sql.mark_dirty(vessel_id, [times[pk] for pk in chunk])
-                # The ORM's delete: it also clears any pointer to a fix made since it was read
-                # (SET_NULL), the rule the pointing model chose. only("pk"): it reads no more.
-                Fix.objects.filter(pk__in=chunk).only("pk").delete()
+            try:
+                deleted += self._delete_chunk(vessel_id, chunk, times)
+            except IntegrityError:
+                # PostgreSQL: a record pointing at one of them was committed after the check
+                # (the foreign key is checked at COMMIT): check again.
+                logger.info("prune_fixes: a fix was pointed at meanwhile; trying again")
+                deleted += self._delete_chunk(vessel_id, chunk, times)
             self.pacer.held(time.perf_counter() - started)
+        return deleted
+
+    def _delete_chunk(self, vessel_id: int, chunk: list[int], times: dict[int, dt.datetime]) -> int:
+        with transaction.atomic():
+            # In the transaction: on SQLite nothing can point at them before it commits.
+            pointed_at = fixes_referenced(chunk)
+            chunk = [pk for pk in chunk if pk not in pointed_at]
+            if chunk:
+                sql.mark_dirty(vessel_id, [times[pk] for pk in chunk])
+                sql.fixes_delete(chunk)
+        return len(chunk)
 
     def _save_mark(self, vessel: Vessel, thinned_before: dt.datetime) -> None:
         FixThinning.objects.update_or_create(

@@ -77,7 +77,8 @@ def small_steps(monkeypatch: pytest.MonkeyPatch) -> None:
     """Reads and transactions of a few fixes: a test's history spans many of each."""
     monkeypatch.setattr(retention, "READ_ROWS", 37)
     monkeypatch.setattr(retention, "DELETE_ROWS_START", 5)
-    monkeypatch.setattr(retention, "DELETE_ROWS_MAX", 8)
+    for vendor in ("sqlite", "postgresql"):
+        monkeypatch.setitem(retention.PACE, vendor, retention.Pace(8, hold_s=1.0, pause_s=0))
 
 
 # --- what is kept ---
@@ -91,7 +92,7 @@ def test_it_keeps_the_first_and_last_fix_of_each_old_minute(vessel_a: Vessel, sm
     assert stored(vessel_a) == first_and_last_per_minute(old) + recent
     (report,) = result.vessels
     assert (report.slug, report.examined, report.deleted) == ("spab", 720, 480)
-    assert result.transactions > 480 // 8  # never more than DELETE_ROWS_MAX in one
+    assert result.transactions >= 480 // 8  # never more than the Pace's max_rows in one
     assert result.finished
 
 
