@@ -14,8 +14,9 @@ vessel and times every post:
 
 1. **baseline**: the ingest loop alone, as long as the prune will take (measured first);
 2. **prune**: `fixes_prune` thins the million to the first and last fix of each minute;
-3. **rebuild**: the overview's out-of-date minutes that the prune marked are rebuilt as
-   `rebuild_track_overview --loop` does (track_overview_refresh, a day per transaction).
+3. **rebuild**: what the rebuild loop then finds out of date is rebuilt as
+   `rebuild_track_overview --loop` does (track_overview_refresh, a day per transaction): the
+   prune rebuilds the overview of what it thinned as it goes, so only the ingest's own minutes.
 
 Printed per phase: the rate (fixes read and deleted per second), and the ingest's posts, their
 median, 99th percentile and worst time ("pause"), and how many took longer than 100 ms
@@ -187,6 +188,7 @@ def child(opts: argparse.Namespace) -> None:
     results["left"] = Fix.objects.filter(vessel=vessel, recorded_at__lt=pruned.cutoff).count()
     results["marks"] = TrackDirty.objects.filter(vessel=vessel).count()
 
+    # The prune rebuilt the overview of what it thinned: anything left is the rebuild loop's.
     def rebuild() -> int:
         rebuilt = 0
         while done := track_overview_refresh(vessel_id=vessel.pk, max_span_s=REBUILD_WINDOW_S):
@@ -243,11 +245,9 @@ def print_table(r: dict[str, Any]) -> None:
         f"prune: {r['examined']:,} read, {r['deleted']:,} deleted, {r['left']:,} left, in"
         f" {r['prune']['seconds']:.1f} s = {r['examined'] / r['prune']['seconds']:,.0f} fixes/s"
         f" ({r['deleted'] / r['prune']['seconds']:,.0f} deletions/s); {r['transactions']:,}"
-        f" transactions, the longest {r['hold_ms']:.1f} ms; {r['marks']:,} minutes marked"
+        f" transactions, the longest {r['hold_ms']:.1f} ms; {r['marks']:,} minutes left out of date"
     )
-    print(
-        f"rebuild of the marked minutes: {r['rebuilt']:,} in {r['rebuild']['seconds']:.1f} s"
-    )
+    print(f"then the rebuild loop: {r['rebuilt']:,} minutes in {r['rebuild']['seconds']:.1f} s")
     print(
         f"{'ingest, one fix a post':<34} {'s':>6} {'posts':>7} {'median ms':>10} {'p99 ms':>8}"
         f" {'max ms':>8} {'>100 ms':>8}"

@@ -15,9 +15,11 @@ Why it never holds up a boat's post:
   how far each vessel is thinned), and thinning again changes nothing.
 
 The track overview stays right: each transaction marks the minutes it deletes from out of date
-(TrackDirty, as the admin's delete does), so reads take those minutes from the fixes left until
-`rebuild_track_overview --loop` rebuilds their buckets from them. The overview then summarises
-the fixes that are stored, as the exports and the fix list do: one story at every zoom.
+(TrackDirty, as the admin's delete does), so reads take those minutes from the fixes left; and
+after each read's deletions the prune rebuilds those minutes' buckets itself, in short
+transactions of their own (track_overview_refresh, an hour of minutes at a time). The overview
+then summarises the fixes that are stored, as the exports and the fix list do: one story at
+every zoom, and the same story after `rebuild_track_overview` rebuilds it from scratch.
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ from django.db import IntegrityError, connection, transaction
 from django.db.models import BooleanField, ExpressionWrapper, Q
 
 from telemetry import sql
-from telemetry.models import Fix, FixThinning
+from telemetry.models import Fix, FixThinning, TrackDirty
+from telemetry.services import track_overview_refresh
 from telemetry.thinning import Thinner, interval_start
 from vessels.models import Vessel
 
@@ -77,6 +80,9 @@ RECEIVED_GRACE_S = 3600
 # A vessel is thinned an hour at a time at least: called every minute (the alerts loop), a
 # prune does not write a mark per vessel per minute.
 STEP_S = 3600
+
+# The overview of the thinned minutes is rebuilt an hour of them per transaction.
+REFRESH_SPAN_S = 3600
 
 # Given fix ids, the ones to keep for the caller's own reasons.
 KeepFn = Callable[[Sequence[int]], Collection[int]]
@@ -216,12 +222,14 @@ class _Pacer:
     transactions: int = 0
     longest: float = 0.0
 
-    def held(self, seconds: float) -> None:
+    def held(self, seconds: float, *, resize: bool = True) -> None:
+        """A transaction held the database ``seconds``: size the next delete (``resize``),
+        then rest."""
         self.transactions += 1
         self.longest = max(self.longest, seconds)
-        if seconds > self.pace.hold_s:
+        if resize and seconds > self.pace.hold_s:
             self.rows = max(DELETE_ROWS_MIN, self.rows // 2)
-        elif seconds < self.pace.hold_s / 2:
+        elif resize and seconds < self.pace.hold_s / 2:
             self.rows = min(self.pace.max_rows, self.rows + self.rows // 4 + 1)
         self.sleep(max(self.pace.pause_s, seconds))
 
@@ -269,6 +277,7 @@ class _Job:
                 report.deleted += len(doomed)
             else:
                 report.deleted += self._delete(vessel.pk, doomed, times)
+                self._refresh_overview(vessel.pk)
                 self._save_mark(vessel, sql.from_epoch(thinner.open_start))  # type: ignore[arg-type]
             times = {thinner.pending: times[thinner.pending]} if thinner.pending else {}
             after, inclusive = rows[-1][1], False
@@ -325,6 +334,17 @@ class _Job:
                 sql.mark_dirty(vessel_id, [times[pk] for pk in chunk])
                 sql.fixes_delete(chunk)
         return len(chunk)
+
+    def _refresh_overview(self, vessel_id: int) -> None:
+        """Rebuild the overview of the minutes thinned so far (marked by _delete_chunk), an hour
+        of them per transaction, as the rebuild loop would, but now: left to the loop, a long
+        prune's marks pile up into its day-long rebuild transactions (bench.retention: 300 ms
+        on SQLite, a post waiting all that time)."""
+        cutoff = self.cutoff.timestamp()
+        while TrackDirty.objects.filter(vessel_id=vessel_id, start__lt=cutoff).exists():
+            started = time.perf_counter()
+            track_overview_refresh(vessel_id=vessel_id, max_span_s=REFRESH_SPAN_S)
+            self.pacer.held(time.perf_counter() - started, resize=False)
 
     def _save_mark(self, vessel: Vessel, thinned_before: dt.datetime) -> None:
         FixThinning.objects.update_or_create(

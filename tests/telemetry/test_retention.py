@@ -219,27 +219,41 @@ def rounded(value: Any) -> Any:
     return value
 
 
+def overview_reads(vessel: Vessel) -> tuple[Any, ...]:
+    start, end = BASE, BASE + 4 * DAY
+    t = track(vessel=vessel, start=start, end=end, max_points=500)
+    s = series(vessel=vessel, start=start, end=end, max_buckets=200)
+    return t.fixes, t.segments, s.starts, rounded(s.channels)
+
+
 @pytest.mark.django_db
-def test_track_and_series_after_a_prune_match_the_fixes_left(vessel_a: Vessel) -> None:
+def test_the_prune_leaves_the_overview_rebuilt_from_the_fixes_left(vessel_a: Vessel) -> None:
     load(vessel_a, BASE, 4 * 3600, step=5)
     track_overview_refresh(vessel_id=vessel_a.pk)  # buckets of the full-resolution fixes
-    start, end = BASE, BASE + 4 * DAY
     prune()
-    left = vessel_a.fixes.filter(recorded_at__lt=end).count()
-    pruned_minutes = {bucket_start(t.timestamp(), WIDTHS[0]) for t in stored(vessel_a)}
-    assert set(TrackDirty.objects.values_list("start", flat=True)) == pruned_minutes
+    assert not TrackDirty.objects.exists()  # nothing left for the rebuild loop
+    after_prune = overview_reads(vessel_a)
+    track_overview_rebuild(vessel=vessel_a)  # from scratch, from the fixes left
+    assert after_prune == overview_reads(vessel_a)
+    assert after_prune[0] == vessel_a.fixes.count() == 4 * 60 * 2
 
-    def reads() -> tuple[Any, ...]:
-        t = track(vessel=vessel_a, start=start, end=end, max_points=500)
-        s = series(vessel=vessel_a, start=start, end=end, max_buckets=200)
-        return t.fixes, t.segments, s.starts, rounded(s.channels)
 
-    before_rebuild = reads()  # the marked minutes read from the fixes left
+@pytest.mark.django_db
+def test_reads_between_a_deletion_and_its_rebuild_take_the_fixes_left(
+    vessel_a: Vessel, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    load(vessel_a, BASE, 4 * 3600, step=5)
     track_overview_refresh(vessel_id=vessel_a.pk)
-    rebuilt = reads()
+    monkeypatch.setattr(retention._Job, "_refresh_overview", lambda self, vessel_id: None)
+    prune()
+    thinned = {bucket_start(t.timestamp(), WIDTHS[0]) for t in stored(vessel_a)}
+    assert set(TrackDirty.objects.values_list("start", flat=True)) == thinned
+    marked = overview_reads(vessel_a)  # the marked minutes are read from their fixes
+    track_overview_refresh(vessel_id=vessel_a.pk)
+    rebuilt = overview_reads(vessel_a)
     track_overview_rebuild(vessel=vessel_a)
-    assert before_rebuild == rebuilt == reads()
-    assert rebuilt[0] == left == 4 * 60 * 2
+    assert marked == rebuilt == overview_reads(vessel_a)
+    assert rebuilt[0] == vessel_a.fixes.count()
 
 
 # --- the command ---
