@@ -63,21 +63,30 @@ def ingest_loop(vessel_id: int) -> None:
     vessel = Vessel.objects.get(pk=vessel_id)
     stop = threading.Event()
     threading.Thread(target=lambda: (sys.stdin.read(), stop.set()), daemon=True).start()
-    times: list[float] = []
+    times: list[tuple[float, float]] = []
     print("ready", flush=True)
     next_at = time.perf_counter()
     i = 0
     while not stop.is_set():
         now = timezone.now()
         record = {"time": now.isoformat(), "lat": -32 + i * 1e-6, "lon": 115.7, "battery_v": 12.4}
-        started = time.perf_counter()
+        queued, started = run_delay_ms(), time.perf_counter()
         result = fix_ingest(vessel=vessel, records=[record], now=now)
-        times.append((time.perf_counter() - started) * 1000)
+        times.append(((time.perf_counter() - started) * 1000, run_delay_ms() - queued))
         assert result.accepted == 1, result
         i += 1
         next_at += TICK_S
         time.sleep(max(0.0, next_at - time.perf_counter()))
     print("@@INGEST " + json.dumps(times), flush=True)
+
+
+def run_delay_ms() -> float:
+    """How long this process has waited for a CPU, all told (Linux schedstat; 0 elsewhere):
+    on a shared machine a post can stall because the ingest itself was not running."""
+    try:
+        return int(Path("/proc/self/schedstat").read_text().split()[1]) / 1e6
+    except (OSError, IndexError, ValueError):
+        return 0.0
 
 
 def beside_ingest(vessel_id: int, action: Callable[[], Any]) -> tuple[Any, dict[str, Any]]:
@@ -100,14 +109,19 @@ def beside_ingest(vessel_id: int, action: Callable[[], Any]) -> tuple[Any, dict[
         for line in out.splitlines()
         if line.startswith("@@INGEST ")
     )
-    times.sort()
+    walls = sorted(wall for wall, _ in times)
+    # A post's time less the time the ingest waited for a CPU meanwhile: what the database
+    # (and the prune) made it wait.
+    waits = sorted(max(0.0, wall - queued) for wall, queued in times)
     return result, {
         "seconds": seconds,
-        "posts": len(times),
-        "median": statistics.median(times),
-        "p99": times[int(len(times) * 0.99)],
-        "max": times[-1],
-        "over": sum(t > TARGET_MS for t in times),
+        "posts": len(walls),
+        "median": statistics.median(walls),
+        "p99": walls[int(len(walls) * 0.99)],
+        "max": walls[-1],
+        "over": sum(t > TARGET_MS for t in walls),
+        "max_running": waits[-1],
+        "over_running": sum(t > TARGET_MS for t in waits),
     }
 
 
@@ -250,7 +264,7 @@ def print_table(r: dict[str, Any]) -> None:
     print(f"then the rebuild loop: {r['rebuilt']:,} minutes in {r['rebuild']['seconds']:.1f} s")
     print(
         f"{'ingest, one fix a post':<34} {'s':>6} {'posts':>7} {'median ms':>10} {'p99 ms':>8}"
-        f" {'max ms':>8} {'>100 ms':>8}"
+        f" {'max ms':>8} {'>100 ms':>8} {'max ms, CPU wait out':>21} {'>100 ms':>8}"
     )
     for name, key in (
         ("baseline: ingest alone", "baseline"),
@@ -260,9 +274,14 @@ def print_table(r: dict[str, Any]) -> None:
         f = r[key]
         print(
             f"{name:<34} {f['seconds']:>6.1f} {f['posts']:>7,} {f['median']:>10.2f}"
-            f" {f['p99']:>8.2f} {f['max']:>8.1f} {f['over']:>8}"
+            f" {f['p99']:>8.2f} {f['max']:>8.1f} {f['over']:>8} {f['max_running']:>21.1f}"
+            f" {f['over_running']:>8}"
         )
-    print(f"target: thinning never pauses ingest more than {TARGET_MS:.0f} ms")
+    print(
+        f"target: thinning never pauses ingest more than {TARGET_MS:.0f} ms. 'CPU wait out':"
+        " each post's time less the time the ingest process waited for a CPU meanwhile"
+        " (/proc/self/schedstat), on a machine shared with other work"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

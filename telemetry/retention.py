@@ -62,15 +62,17 @@ class Pace:
 
 
 PACE = {
-    # One writer: a post waits for the whole transaction, so it is kept short. The rest: SQLite's
-    # busy handler (sqliteDefaultBusyCallback) lets a waiting writer try again after 1, 2, 5,
-    # 10, 15, 20, 25, 25, 25, 50 … ms, so a gap over 25 ms lets in every writer that has waited
-    # less than ~180 ms.
-    "sqlite": Pace(max_rows=2000, hold_s=0.02, pause_s=0.03),
+    # One writer: a post waits for the whole transaction, so it is kept short, and shorter than
+    # the work alone needs: on a busy machine the prune may lose its CPU while it holds the
+    # lock (bench.retention: 2,000-row transactions of 20 ms of work held it 100 ms at times).
+    # The rest: SQLite's busy handler (sqliteDefaultBusyCallback) lets a waiting writer try
+    # again after 1, 2, 5, 10, 15, 20, 25, 25, 25, 50 … ms, so a gap over 25 ms lets in every
+    # writer that has waited less than ~180 ms.
+    "sqlite": Pace(max_rows=500, hold_s=0.01, pause_s=0.03),
     # Row locks: a post waits on no lock thinning takes (old rows, old minutes). A short
     # transaction's time is mostly its COMMIT's flush, so bigger ones cost little more; the rest
     # (as long as the hold) leaves the disk to the posts half the time.
-    "postgresql": Pace(max_rows=5000, hold_s=0.1, pause_s=0.005),
+    "postgresql": Pace(max_rows=2000, hold_s=0.05, pause_s=0.005),
 }
 
 # A fix received this recently is not thinned, however old its time: the alerts loop looks at
