@@ -152,10 +152,11 @@ def fixes_prune(
        points at (fixes_referenced), those ``keep`` names, and those received since
        ``now`` - RECEIVED_GRACE_S.
     3. What the Thinner gives up is deleted in short transactions (see the module's notes),
-       each marking its minutes out of date for the track overview; then the vessel's mark
-       moves on. A dry run deletes nothing and moves no mark.
-    4. ``max_seconds`` or ``stop()`` end the prune between two reads; the result says
-       ``finished=False`` and the next call carries on.
+       each marking its minutes out of date for the track overview, whose buckets are then
+       rebuilt from the fixes left; then the vessel's mark moves on. A dry run deletes
+       nothing and moves no mark.
+    4. ``max_seconds`` or ``stop()`` end the prune between two reads or two vessels; the
+       result says ``finished=False`` and the next call carries on.
     """
     days = settings.FIX_RETENTION_DAYS if older_than_days is None else older_than_days
     interval = interval_s or settings.FIX_THIN_INTERVAL_S
@@ -173,6 +174,9 @@ def fixes_prune(
     pacer = _Pacer(sleep=sleep, pace=PACE.get(connection.vendor, PACE["postgresql"]))
     job = _Job(cutoff, interval, now - dt.timedelta(seconds=RECEIVED_GRACE_S), keep, pacer)
     for vessel in Vessel.objects.order_by("pk") if vessels is None else vessels:
+        if should_stop():
+            result.finished = False
+            break
         report = VesselPrune(vessel.slug)
         try:
             job.vessel(vessel, report, dry_run=dry_run, rescan=rescan, should_stop=should_stop)

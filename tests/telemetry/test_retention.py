@@ -189,6 +189,14 @@ def test_a_prune_stopped_early_carries_on_where_it_stopped(vessel_a: Vessel, sma
 
 
 @pytest.mark.django_db
+def test_a_prune_out_of_time_stops_before_the_next_vessel(vessel_a: Vessel) -> None:
+    load(vessel_a, BASE, 600)
+    result = prune(max_seconds=0)
+    assert not result.finished and result.deleted == 0 and len(stored(vessel_a)) == 60
+    assert prune(max_seconds=60).finished
+
+
+@pytest.mark.django_db
 def test_a_new_interval_thins_the_history_again(vessel_a: Vessel) -> None:
     times = load(vessel_a, BASE, 3600)
     prune(interval_s=60)
