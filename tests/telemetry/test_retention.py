@@ -119,6 +119,27 @@ def test_a_fix_that_opened_an_alert_is_kept(vessel_a: Vessel) -> None:
     assert Alert.objects.get().fix_id == middle.pk
 
 
+@pytest.mark.django_db(transaction=True)
+def test_a_fix_pointed_at_after_the_check_is_kept(vessel_a: Vessel, monkeypatch) -> None:
+    """An alert opening on a fix between the check and the COMMIT: the foreign key (checked at
+    COMMIT) refuses the transaction, and the batch is checked and deleted again."""
+    times = load(vessel_a, BASE, 600)
+    middle = vessel_a.fixes.get(recorded_at=times[3])
+    rule = AlertRule.objects.create(name="low", kind="battery", threshold=11.5)
+    Alert.objects.create(rule=rule, vessel=vessel_a, kind="battery", opened_at=BASE, fix=middle)
+    real, calls = retention.fixes_referenced, []
+
+    def late_check(ids: Any) -> set[int]:
+        calls.append(ids)
+        return set() if len(calls) == 1 else real(ids)  # the first misses it: made too early
+
+    monkeypatch.setattr(retention, "fixes_referenced", late_check)
+    prune()
+    assert len(calls) == 2 and calls[0] == calls[1]  # the refused batch, then the same again
+    assert stored(vessel_a) == sorted({*first_and_last_per_minute(times), times[3]})
+    assert Alert.objects.get().fix_id == middle.pk
+
+
 @pytest.mark.django_db
 def test_the_callers_keep_list_is_kept(vessel_a: Vessel) -> None:
     times = load(vessel_a, BASE, 600)
