@@ -391,6 +391,14 @@ LEAFLET_CONFIG = {
 FIX_MAX_BATCH = env_int("FIX_MAX_BATCH", 5000)
 # A fix more than this far ahead of the server clock is a clock fault, not data.
 FIX_MAX_FUTURE_S = env_int("FIX_MAX_FUTURE_S", 300)
+# Retention (telemetry.retention): fixes older than FIX_RETENTION_DAYS are thinned to the first
+# and last of each FIX_THIN_INTERVAL_S (and every fix an alert points at); 0 = keep every fix.
+FIX_RETENTION_DAYS = env_int("FIX_RETENTION_DAYS", 0)
+FIX_THIN_INTERVAL_S = env_int("FIX_THIN_INTERVAL_S", 60)
+if FIX_RETENTION_DAYS < 0:
+    raise ValueError(f"FIX_RETENTION_DAYS={FIX_RETENTION_DAYS} is negative (0 keeps every fix)")
+if not 1 <= FIX_THIN_INTERVAL_S <= 86400:
+    raise ValueError(f"FIX_THIN_INTERVAL_S={FIX_THIN_INTERVAL_S} is not 1 to 86400 seconds")
 # Writing last_used_at on every poll would serialise polls on SQLite's write lock.
 KEY_TOUCH_INTERVAL_S = env_int("KEY_TOUCH_INTERVAL_S", 60)
 # PostgreSQL: the single-fix post is prepared once per connection (vessels.sql.execute_prepared).

@@ -100,3 +100,18 @@ class TrackDirty(models.Model):
         constraints = [
             models.UniqueConstraint(fields=["vessel", "start"], name="trackdirty_unique")
         ]
+
+
+class FixThinning(models.Model):
+    """How far retention has thinned a vessel's fixes (telemetry/retention.py).
+
+    Every interval of ``interval_s`` wholly before ``thinned_before`` holds only its first and
+    last fix and the fixes kept for their own sake: the next prune starts there instead of
+    reading the vessel's whole thinned history again. A prune with another interval starts over.
+    """
+
+    vessel = models.OneToOneField(
+        Vessel, on_delete=models.CASCADE, primary_key=True, related_name="+"
+    )
+    interval_s = models.PositiveIntegerField()
+    thinned_before = models.DateTimeField()

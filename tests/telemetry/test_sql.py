@@ -218,3 +218,15 @@ def test_the_one_statement_post_inserts_marks_and_advances_the_vessel(vessel_a: 
     assert sql.insert_with_vessel(vessel_a.pk, fixes[1:], later, newest=fixes[1], summary={}) == []
     vessel_a.refresh_from_db()
     assert vessel_a.last_fix == {"time": "newest"} and vessel_a.last_seen_at == later
+
+
+def test_fixes_delete_deletes_those_ids_in_one_statement(
+    vessel_a: Vessel, vessel_b: Vessel
+) -> None:
+    fixes = [fix(vessel_a, s) for s in range(5)] + [fix(vessel_b, 2)]
+    with CaptureQueriesContext(connection) as queries:
+        sql.fixes_delete([fixes[1].pk, fixes[3].pk, fixes[5].pk])
+    assert len(queries) == 1
+    assert list(Fix.objects.order_by("pk").values_list("pk", flat=True)) == [
+        fixes[0].pk, fixes[2].pk, fixes[4].pk,
+    ]  # fmt: skip
