@@ -45,8 +45,9 @@ class WindowRateThrottle(SimpleRateThrottle):
         key = f"{key}:{window}"
         rest = (window + 1) * self.duration - now  # of this window, in seconds
         # incr() first: past a window's first request the key is there, and one cache call
-        # counts it (add() pickled its value and failed, then incr() ran: three calls with
-        # touch(), a tenth of a single-fix post's Python, profiled with bench.server).
+        # counts it (add() failed, then incr() and touch() ran: the throttles were 6% of a
+        # single-fix post's Python, profiled with bench.server). incr() is atomic in locmem,
+        # get-then-set in the file and database caches, where a race may lose a count.
         try:
             count = self.cache.incr(key)
         except ValueError:  # the window's first request, or its key just expired
