@@ -195,13 +195,14 @@ MIDDLEWARE = [
     "django.middleware.security.SecurityMiddleware",
     # Serves the vendored front-end assets (Leaflet, Swagger UI) itself: no CDN, no internet.
     "whitenoise.middleware.WhiteNoiseMiddleware",
-    "django.contrib.sessions.middleware.SessionMiddleware",
+    # Django's own, which boat API requests pass by (vessels/middleware.py).
+    "vessels.middleware.SessionMiddleware",
     "django.middleware.common.CommonMiddleware",
     "django.middleware.csrf.CsrfViewMiddleware",
-    "django.contrib.auth.middleware.AuthenticationMiddleware",
+    "vessels.middleware.AuthenticationMiddleware",
     # Who and from where, for the audit entries a request's services write (audit.context).
     "operators.middleware.AuditOriginMiddleware",
-    "django.contrib.messages.middleware.MessageMiddleware",
+    "vessels.middleware.MessageMiddleware",
     "django.middleware.clickjacking.XFrameOptionsMiddleware",
 ]
 

@@ -19,7 +19,7 @@ from telemetry.errors import BatchTooLarge, KeyRefused
 from telemetry.models import Fix, SensorChannel, TrackBucket, TrackDirty
 from telemetry.overview import WIDTHS, bucket_start, group_by_bucket, merge, summarize
 from telemetry.parsing import FixData, FixErrors, parse_fix, parse_legacy_fix
-from vessels.database import database_unavailable
+from vessels.database import database_unavailable, health_check_spare
 from vessels.models import Vessel
 from vessels.selectors import vessel_key_works
 from vessels.services import vessel_record_fix
@@ -86,8 +86,10 @@ def _store(
     A connection lost before COMMIT (a database restart, a failover) rolled everything back:
     try once more on a fresh connection. Safe even if it was the COMMIT's answer that was
     lost, because the insert is idempotent (the retry counts those fixes as duplicates).
-    Inside a caller's transaction there is nothing to retry from: the error goes up.
+    Inside a caller's transaction there is nothing to retry from: the error goes up. That
+    retry is what the per-request connection health check is for: it is spared.
     """
+    health_check_spare()
     try:
         return _store_once(vessel, fixes, now, key_id)
     except DatabaseError as exc:

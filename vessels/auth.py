@@ -85,12 +85,22 @@ def key_lookup_recent(raw_key: str) -> VesselKey:
     return key
 
 
+def key_is_recent(raw_key: str) -> bool:
+    """Whether :func:`key_lookup_recent` would answer ``raw_key`` from the recent lookups
+    (no query, nothing refused); it looks only, changing nothing."""
+    if not raw_key or len(raw_key) > 200:
+        return False
+    found = _recent.get(hash_key(raw_key))
+    return found is not None and time.monotonic() - found[0] < KEY_RECENT_S
+
+
 def key_forget(raw_key: str) -> None:
     """Drop ``raw_key`` from the recent lookups (its write found it no longer works)."""
     _recent.pop(hash_key(raw_key), None)
 
 
-def _raw_key(request: Request) -> str:
+def raw_key(request: HttpRequest | Request) -> str:
+    """The key of an `Authorization: Api-Key <key>` header, or "" when there is none."""
     scheme, _, raw = request.META.get("HTTP_AUTHORIZATION", "").partition(" ")
     return raw.strip() if scheme.lower() == SCHEME.lower() else ""
 
@@ -100,7 +110,7 @@ def key_recheck(request: Request) -> None:
 
     For any error a view with ``keys_checked_by_writes`` answers (a bad body, a refused write):
     a key revoked since its recent lookup is a 401 first, as it is when the lookup is fresh."""
-    raw = _raw_key(request)
+    raw = raw_key(request)
     if raw:
         key_forget(raw)
         key_lookup(raw)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import sqlite3
 
 import psycopg
-from django.db import InterfaceError, OperationalError
+from django.db import InterfaceError, OperationalError, connection
 
 # What a 503 for a database away for a moment asks the client to wait, in seconds.
 RETRY_AFTER_S = 5
@@ -59,3 +59,17 @@ def database_unavailable(exc: BaseException) -> bool:
         return True
     message = str(exc).lower()
     return any(text in message for text in (*_LOST_MESSAGES, *_SQLITE_TRANSIENT))
+
+
+def health_check_spare() -> None:
+    """Spare this request the connection's health check, for a caller that retries its
+    statement once on a fresh connection when :func:`database_unavailable` says the database
+    went away: what the check (CONN_HEALTH_CHECKS) would have done before it.
+
+    On PostgreSQL the check is a `SELECT 1` round trip before a request's first query: half
+    of the single-fix post's round trips, whose one statement is its own transaction
+    (telemetry.services; benchmark `python -m bench.server --single-only`). A query already
+    run in this request has had the check; inside a transaction nothing is retried.
+    """
+    if connection.connection is not None and not connection.in_atomic_block:
+        connection.health_check_done = True

@@ -1,9 +1,14 @@
-"""Keep boat API responses small: the link is 3G or satellite and billed by the byte."""
+"""Boat API requests: small responses (the link is 3G or satellite and billed by the byte),
+and none of the browser's middleware work (sessions, logins, messages) on the way."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
+from django.contrib.auth import middleware as auth
+from django.contrib.messages import middleware as messages
+from django.contrib.sessions import middleware as sessions
 from django.http import HttpRequest, HttpResponse
 
 BOAT_PREFIXES = ("/api/v1/boat/", "/spab/")
@@ -35,3 +40,33 @@ class BoatApiSlimMiddleware:
                 if header in response.headers:
                     del response.headers[header]
         return response
+
+
+class BoatPathsPassBy:
+    """A browser middleware that boat API requests pass by untouched.
+
+    A boat authenticates with its key alone (vessels.auth) and its answers are JSON: it has no
+    session, logged-in user or flash messages, and the boat views and their error views
+    (fleet.error_views) read none. Setting them up cost a twentieth of the everyday request
+    (the single-fix post, profiled; benchmark `python -m bench.server --single-only`).
+    Django's checks still find each class, as subclasses of its own.
+    """
+
+    get_response: Callable[[HttpRequest], Any]
+
+    def __call__(self, request: HttpRequest) -> Any:
+        if request.path_info.startswith(BOAT_PREFIXES):
+            return self.get_response(request)
+        return super().__call__(request)  # type: ignore[misc]
+
+
+class SessionMiddleware(BoatPathsPassBy, sessions.SessionMiddleware):
+    pass
+
+
+class AuthenticationMiddleware(BoatPathsPassBy, auth.AuthenticationMiddleware):
+    pass
+
+
+class MessageMiddleware(BoatPathsPassBy, messages.MessageMiddleware):
+    pass

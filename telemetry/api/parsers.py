@@ -24,14 +24,18 @@ def _integer(text: str) -> int | float:
     return int(text) if len(text) <= MAX_INT_DIGITS else float(text)
 
 
+def loads(text: str) -> Any:
+    """A telemetry body's JSON: NaN, Infinity and -Infinity as the floats of those names,
+    an integer past MAX_INT_DIGITS as a float (ValueError or RecursionError for bad JSON)."""
+    return json.loads(text, parse_constant=float, parse_int=_integer)
+
+
 class TelemetryJSONParser(JSONParser):
     def parse(self, stream: Any, media_type: str | None = None, parser_context: Any = None) -> Any:
         refuse_oversized(parser_context)
         encoding = (parser_context or {}).get("encoding", settings.DEFAULT_CHARSET)
         try:
-            text = codecs.getreader(encoding)(stream).read()
-            # parse_constant: NaN, Infinity and -Infinity become the floats of those names.
-            return json.loads(text, parse_constant=float, parse_int=_integer)
+            return loads(codecs.getreader(encoding)(stream).read())
         except RecursionError:
             raise ParseError("JSON parse error - nested too deeply") from None
         except ValueError as exc:  # includes UnicodeDecodeError

@@ -14,6 +14,7 @@ from rest_framework.test import APIClient
 
 from telemetry.models import Fix, TrackDirty
 from tests.support import TELEMETRY, MakeFix, iso
+from vessels.auth import key_forget, key_is_recent
 from vessels.models import Vessel
 
 
@@ -309,3 +310,80 @@ def test_a_repeated_single_fix_post_writes_only_the_last_seen(
     vessel_a.refresh_from_db()
     assert vessel_a.last_seen_at is not None
     assert vessel_a.last_fix_at == dt.datetime(2026, 11, 23, 10, tzinfo=dt.UTC)
+
+
+# --- the everyday post's short way (TelemetryView.dispatch) answers as DRF's whole way ---
+#
+# A key this process looked up lately (vessels.auth.key_lookup_recent) lets a JSON post take the
+# short way; the same body from a key not looked up yet goes DRF's whole way. Both boats post
+# the same bodies: every answer (status, headers, body) must be the same.
+
+WELL_FORMED = {
+    "good": lambda fix: json.dumps([fix]),
+    "object": lambda fix: json.dumps({"fixes": [fix, {**fix, "lat": 91}]}),
+    "nan": lambda fix: json.dumps([{**fix, "lat": float("nan")}]),
+    "not a list": lambda fix: json.dumps({"fix": fix}),
+    "bad json": lambda fix: json.dumps([fix])[:-3],
+    "not utf-8": lambda fix: json.dumps(
+        [{**fix, "readings": {"t\xe9": 1}}], ensure_ascii=False
+    ).encode("latin-1"),
+    "empty": lambda fix: "",
+}
+
+
+def _answer(response: Any) -> tuple[int, dict[str, str], bytes]:
+    return response.status_code, dict(response.headers), response.content
+
+
+@pytest.mark.parametrize("content_type", ["application/json", "text/plain"])
+@pytest.mark.parametrize("body", list(WELL_FORMED))
+def test_the_short_way_answers_as_drf_whole_way(
+    boat_a: APIClient,
+    boat_b: APIClient,
+    key_b: str,
+    make_fix: MakeFix,
+    body: str,
+    content_type: str,
+) -> None:
+    boat_a.post(TELEMETRY, [make_fix(time="2026-11-23T08:00:00Z")], format="json")
+    data = WELL_FORMED[body](make_fix())
+    short = boat_a.generic("POST", TELEMETRY, data, content_type=content_type)
+    key_forget(key_b)
+    whole = boat_b.generic("POST", TELEMETRY, data, content_type=content_type)
+    assert _answer(short) == _answer(whole)
+    # An error answered is checked against a fresh lookup, which the recent keys then lack.
+    assert key_is_recent(key_b) == (whole.status_code == 200)
+
+
+def test_the_short_way_counts_the_throttle_and_refuses_past_it(
+    settings: Any, boat_a: APIClient, make_fix: MakeFix
+) -> None:
+    settings.REST_FRAMEWORK = {
+        **settings.REST_FRAMEWORK,
+        "DEFAULT_THROTTLE_RATES": {"boat": "2/min", "operator": "2/min"},
+    }
+    first = boat_a.post(TELEMETRY, [make_fix(time="2026-11-23T08:00:00Z")], format="json")
+    assert first.status_code == 200
+    assert boat_a.post(TELEMETRY, [make_fix()], format="json").status_code == 200
+    refused = boat_a.post(TELEMETRY, [make_fix(time="2026-11-23T10:00:01Z")], format="json")
+    assert refused.status_code == 429
+    assert refused.json()["error"] == "throttled"
+    assert "Retry-After" in refused
+
+
+def test_only_the_everyday_post_takes_the_short_way(
+    rf: Any, boat_a: APIClient, key_a: str, key_b: str, make_fix: MakeFix
+) -> None:
+    from telemetry.api.boat import everyday_records
+
+    boat_a.post(TELEMETRY, [make_fix(time="2026-11-23T08:00:00Z")], format="json")
+    body = json.dumps({"fixes": [make_fix()]})
+
+    def post(key: str = key_a, content_type: str = "application/json") -> Any:
+        auth = f"Api-Key {key}"
+        return rf.post(TELEMETRY, body, content_type=content_type, HTTP_AUTHORIZATION=auth)
+
+    assert everyday_records(post()) == [make_fix()]
+    assert everyday_records(post(key=key_b)) is None  # not looked up yet
+    assert everyday_records(post(content_type="application/json; charset=utf-8")) is None
+    assert everyday_records(rf.get(TELEMETRY, HTTP_AUTHORIZATION=f"Api-Key {key_a}")) is None
