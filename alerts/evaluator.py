@@ -1,0 +1,432 @@
+"""The alerts evaluator: one pass judges every active rule on every vessel it covers.
+
+A pass reads only what changed, in a handful of bulk queries whatever the fleet's size:
+
+1. the active rules (a rule failing this process is pushed aside for a while, see PushAside);
+2. the active vessels (id, kind, telemetry period, last seen): overdue rules need nothing else;
+3. the active alert episodes, keyed (rule, vessel, subject);
+4. the fixes *received* since the previous pass, for battery, reading and fence rules;
+5. the hourly battery means of the last two days (the track overview's buckets), only for
+   vessels with an endurance rule and only when the hour has rolled over since last computed;
+6. the commands that ended since the previous pass, for command rules.
+
+Then each rule runs its observations through alerts/rules.py's state machine per vessel, in
+time order, opening and resolving episodes through alerts/services/alerts.py (which queue the
+notifications). A rule whose evaluation raises is logged and left out of the next passes for a
+while, doubling up to an hour; the other rules carry on.
+
+**Which fixes are new.** A fix is stamped ``received_at`` by ingest *before* its transaction
+commits, and on PostgreSQL neither ids nor those stamps become visible in order: a pass at
+12:00:10 may miss a fix stamped 12:00:09.9 that commits at 12:00:10.2. So each pass reads back
+to ALERTS_FIX_OVERLAP_S before the previous pass's start and skips the ids it has already
+judged (kept for the overlap window only). The same for commands and ``finished_at``, where an
+episode per command uid makes a second look harmless anyway.
+
+**Restarts.** The cursor lives in the process. A new evaluator starts at its own start time
+(``since`` in tests and ``run_alerts --once``, which looks back one period): fixes received
+while none ran are not replayed, but overdue, endurance and command rules judge state, not
+fixes, and a threshold rule is judged again on the vessel's next fix.
+
+**Two evaluators at once** (a deploy overlapping, two hosts) are safe, not useful: each opens
+through the partial unique constraint and resolves with a conditional UPDATE, so one episode
+and one set of notifications result (tests/alerts/test_race.py).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import logging
+import math
+import time
+from collections import defaultdict
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+from django.conf import settings
+from django.utils import timezone
+
+from alerts import rules as R
+from alerts.endurance import HOUR_S, endurance_hours, hourly_means_from_channels
+from alerts.geofence import contains, fence_wire
+from alerts.models import ACTIVE_STATES, Alert, AlertRule, RuleKind
+from alerts.services.alerts import alert_open, alert_resolve
+from commands.models import Command
+from edge_client.contract.backoff import UNTIL_THE_CAP, after_failures
+from edge_client.contract.status import Status
+from telemetry.models import Fix, SensorChannel, TrackBucket
+from vessels.models import Vessel
+
+logger = logging.getLogger(__name__)
+
+# A rule whose evaluation raised is skipped for this long, doubling per failure, up to the max.
+RETRY_FIRST_S = 60.0
+RETRY_MAX_S = 3600.0
+# A fresh evaluator looks this far back for ended commands (a restart must not lose one; an
+# episode per command uid makes reading one twice harmless).
+COMMAND_LOOKBACK = dt.timedelta(hours=1)
+# Hourly means kept per vessel for endurance: two days and the hour in progress.
+ENDURANCE_HOURS = 49
+FIX_RULES = (RuleKind.BATTERY, RuleKind.READING, RuleKind.FENCE)
+FIX_FIELDS = ("id", "vessel_id", "recorded_at", "received_at", "lat", "lon", "battery_v",
+              "readings")  # fmt: skip
+ENDED = (Status.DONE, Status.FAILED, Status.EXPIRED)
+
+
+@dataclass
+class PassReport:
+    """What one pass did (run_alerts logs it; the bench and tests read it)."""
+
+    rules: int = 0
+    vessels: int = 0
+    fixes: int = 0
+    opened: int = 0
+    resolved: int = 0
+    failed_rules: list[int] = field(default_factory=list)
+
+
+class PushAside:
+    """Rules that failed: when each may be tried again (healthchecks' "don't trip on this check
+    again for an hour"), on a monotonic clock."""
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+        self.clock = clock
+        self.failures: dict[int, tuple[int, float]] = {}
+
+    def skips(self, rule_id: int) -> bool:
+        failures, retry_at = self.failures.get(rule_id, (0, 0.0))
+        return bool(failures) and self.clock() < retry_at
+
+    def failed(self, rule_id: int) -> float:
+        failures = self.failures.get(rule_id, (0, 0.0))[0] + 1
+        delay = after_failures(RETRY_FIRST_S, failures - 1, cap=RETRY_MAX_S,
+                               max_doublings=UNTIL_THE_CAP)  # fmt: skip
+        self.failures[rule_id] = (failures, self.clock() + delay)
+        return delay
+
+    def worked(self, rule_id: int) -> None:
+        self.failures.pop(rule_id, None)
+
+
+@dataclass
+class Snapshot:
+    """What one pass read, shared by the rules."""
+
+    now: dt.datetime
+    vessels: dict[int, dict[str, Any]]
+    by_kind: dict[str, list[int]]
+    active: dict[tuple[int, int, str], dict[str, Any]]
+    fixes: dict[int, list[tuple[Any, ...]]]
+    channels: dict[str, tuple[float | None, float | None]]
+    commands: list[dict[str, Any]]
+
+    def scope(self, rule: AlertRule) -> list[int]:
+        if rule.vessel_id is not None:
+            v = self.vessels.get(rule.vessel_id)
+            return (
+                [rule.vessel_id]
+                if v and (not rule.vessel_kind or v["kind"] == rule.vessel_kind)
+                else []
+            )
+        if rule.vessel_kind:
+            return self.by_kind.get(rule.vessel_kind, [])
+        return list(self.vessels)
+
+
+class Evaluator:
+    """Holds the cursors between passes; ``run_pass`` is one pass (module docstring)."""
+
+    def __init__(
+        self,
+        *,
+        since: dt.datetime | None = None,
+        overlap_s: float | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        start = since or timezone.now()
+        self.overlap = dt.timedelta(
+            seconds=settings.ALERTS_FIX_OVERLAP_S if overlap_s is None else overlap_s
+        )
+        self.fix_cursor = start
+        self.command_cursor = start - COMMAND_LOOKBACK
+        # Fix id -> received_at, for the fixes judged within the overlap window.
+        self.seen: dict[int, dt.datetime] = {}
+        # Vessel id -> (hour the means were read in, hour start -> mean battery volts).
+        self.hourly: dict[int, tuple[int, dict[int, float]]] = {}
+        self.aside = PushAside(clock)
+
+    # The pass -----------------------------------------------------------------------------
+
+    def run_pass(self, now: dt.datetime | None = None) -> PassReport:
+        now = now or timezone.now()
+        report = PassReport()
+        rules = [r for r in active_rules() if not self.aside.skips(r.pk)]
+        snap = self.snapshot(rules, now)
+        report.rules, report.vessels = len(rules), len(snap.vessels)
+        report.fixes = sum(len(f) for f in snap.fixes.values())
+        for rule in rules:
+            try:
+                opened, resolved = self.judge(rule, snap)
+            except Exception:
+                delay = self.aside.failed(rule.pk)
+                logger.exception("run_alerts: rule %s (%s) failed; skipping it for %.0f s",
+                                 rule.pk, rule.name, delay)  # fmt: skip
+                report.failed_rules.append(rule.pk)
+                continue
+            self.aside.worked(rule.pk)
+            report.opened += opened
+            report.resolved += resolved
+        self.advance(snap, now)
+        return report
+
+    def snapshot(self, rules: list[AlertRule], now: dt.datetime) -> Snapshot:
+        kinds = {r.kind for r in rules}
+        vessels = {
+            v["id"]: v
+            for v in Vessel.objects.filter(active=True).values(
+                "id", "slug", "kind", "telemetry_period_s", "last_seen_at"
+            )
+        }
+        by_kind: dict[str, list[int]] = defaultdict(list)
+        for v in vessels.values():
+            by_kind[v["kind"]].append(v["id"])
+        active = {
+            (a["rule_id"], a["vessel_id"], a["subject"]): a
+            for a in Alert.objects.filter(state__in=ACTIVE_STATES).values(
+                "id", "rule_id", "vessel_id", "subject", "opened_at"
+            )
+        }
+        fixes = self.new_fixes() if kinds & set(FIX_RULES) else {}
+        channels = {}
+        if RuleKind.READING in kinds:
+            channels = {
+                c["key"]: (c["minimum"], c["maximum"])
+                for c in SensorChannel.objects.values("key", "minimum", "maximum")
+            }
+        commands = self.ended_commands() if RuleKind.COMMAND in kinds else []
+        return Snapshot(now, vessels, by_kind, active, fixes, channels, commands)
+
+    def new_fixes(self) -> dict[int, list[tuple[Any, ...]]]:
+        """Fixes received since the last pass (less the overlap), not judged yet, per vessel in
+        time order. Uses the index on received_at (telemetry migration 0003)."""
+        rows = (
+            Fix.objects.filter(received_at__gte=self.fix_cursor - self.overlap)
+            .order_by("recorded_at")
+            .values_list(*FIX_FIELDS)
+        )
+        fixes: dict[int, list[tuple[Any, ...]]] = defaultdict(list)
+        for row in rows:
+            if row[0] in self.seen:
+                continue
+            self.seen[row[0]] = row[3]
+            fixes[row[1]].append(row)
+        return fixes
+
+    def ended_commands(self) -> list[dict[str, Any]]:
+        return list(
+            Command.objects.filter(
+                finished_at__gte=self.command_cursor - self.overlap, status__in=ENDED
+            )
+            .order_by("finished_at")
+            .values("uid", "vessel_id", "kind", "status", "created_at", "result_detail")
+        )
+
+    def advance(self, snap: Snapshot, now: dt.datetime) -> None:
+        """Move the cursors to this pass's start; forget ids older than the overlap window."""
+        self.fix_cursor = self.command_cursor = now
+        horizon = now - self.overlap
+        self.seen = {pk: at for pk, at in self.seen.items() if at >= horizon}
+
+    # Judging one rule -----------------------------------------------------------------------
+
+    def judge(self, rule: AlertRule, snap: Snapshot) -> tuple[int, int]:
+        """Open and resolve ``rule``'s episodes on the vessels it covers: (opened, resolved)."""
+        judge = getattr(self, f"judge_{rule.kind}")
+        episodes = Episodes(rule, snap)
+        judge(rule, snap, episodes)
+        return episodes.opened, episodes.resolved
+
+    def judge_overdue(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
+        for vessel_id in snap.scope(rule):
+            v = snap.vessels[vessel_id]
+            limit = R.overdue_limit_s(v["telemetry_period_s"], rule.threshold)
+            seen = v["last_seen_at"]
+            silent = (snap.now - seen).total_seconds() if seen else None
+            detail = f"silent {silent:.0f} s (limit {limit:.0f} s)" if silent else ""
+            ep.observe(vessel_id, R.overdue(silent, limit), value=silent, detail=detail)
+
+    def judge_battery(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
+        if rule.threshold is None:
+            return
+        for vessel_id in snap.scope(rule):
+            for fix in snap.fixes.get(vessel_id, ()):
+                volts = fix[6]
+                verdict = R.battery(volts, rule.threshold, rule.maximum)
+                detail = f"battery {volts} V, below {rule.threshold} V"
+                ep.observe(vessel_id, verdict, value=volts, detail=detail, fix_id=fix[0])
+
+    def judge_reading(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
+        low, high = snap.channels.get(rule.reading, (None, None))
+        limits = R.reading_limits(rule.minimum, rule.maximum, low, high)
+        if not limits.usable:
+            return
+        for vessel_id in snap.scope(rule):
+            for fix in snap.fixes.get(vessel_id, ()):
+                value = (fix[7] or {}).get(rule.reading)
+                detail = f"{rule.reading} {value}, outside {limits.low} … {limits.high}"
+                verdict = R.reading(value, limits)
+                ep.observe(vessel_id, verdict, value=_num(value), detail=detail, fix_id=fix[0])
+
+    def judge_fence(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
+        fence = rule.fence
+        if fence is None:
+            return
+        wire = fence_wire(fence)
+
+        def inside(lat: float, lon: float) -> bool:
+            return contains(wire, lat, lon)
+
+        side = "outside" if fence.inclusion else "inside"
+        detail = f"{side} {'inclusion' if fence.inclusion else 'exclusion'} fence {fence.name}"
+        for vessel_id in snap.scope(rule):
+            if fence.vessel_id is not None and fence.vessel_id != vessel_id:
+                continue
+            for fix in snap.fixes.get(vessel_id, ()):
+                verdict = R.fence(fix[4], fix[5], fence.inclusion, inside)
+                ep.observe(vessel_id, verdict, detail=f"{detail} at {fix[4]:.5f}, {fix[5]:.5f}",
+                           fix_id=fix[0])  # fmt: skip
+
+    def judge_endurance(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
+        if rule.threshold is None:
+            return
+        empty = rule.minimum if rule.minimum is not None else settings.ALERTS_BATTERY_EMPTY_V
+        vessels = snap.scope(rule)
+        means = self.hourly_means(vessels, snap.now)
+        for vessel_id in vessels:
+            hours = endurance_hours(means.get(vessel_id, {}), empty_v=empty,
+                                    now_s=snap.now.timestamp())  # fmt: skip
+            value = None if hours is None or math.isinf(hours) else round(hours, 2)
+            detail = f"endurance {value} h to {empty} V, below {rule.threshold} h"
+            ep.observe(vessel_id, R.endurance(hours, rule.threshold), value=value, detail=detail)
+
+    def hourly_means(self, vessel_ids: list[int], now: dt.datetime) -> dict[int, dict[int, float]]:
+        """Each vessel's hourly battery means (two days), read again once per clock hour."""
+        hour = math.floor(now.timestamp() / HOUR_S) * HOUR_S
+        stale = [v for v in vessel_ids if self.hourly.get(v, (None,))[0] != hour]
+        if stale:
+            rows: dict[int, list[tuple[int, Any]]] = defaultdict(list)
+            for chunk in _chunks(stale, 500):  # SQLite's bound-parameter limit
+                buckets = TrackBucket.objects.filter(
+                    vessel_id__in=chunk, width=HOUR_S,
+                    start__gte=hour - ENDURANCE_HOURS * HOUR_S, start__lt=hour,
+                ).values_list("vessel_id", "start", "channels")  # fmt: skip
+                for vessel_id, start, channels in buckets:
+                    rows[vessel_id].append((start, channels))
+            for vessel_id in stale:
+                self.hourly[vessel_id] = (hour, hourly_means_from_channels(rows[vessel_id]))
+        return {v: self.hourly[v][1] for v in vessel_ids}
+
+    def judge_command(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
+        """A failed or expired command opens an episode of its own (subject: its uid), once
+        ever; a later command of the same kind to the same vessel that ends done resolves it."""
+        scope = set(snap.scope(rule))
+        ended = [c for c in snap.commands if c["vessel_id"] in scope]
+        bad = [c for c in ended if c["status"] in R.COMMAND_BAD_ENDS]
+        done = [c for c in ended if c["status"] == Status.DONE]
+        if bad:
+            ever = set(
+                Alert.objects.filter(rule=rule, subject__in=[str(c["uid"]) for c in bad])
+                .values_list("subject", flat=True)
+            )  # fmt: skip
+            for c in bad:
+                if str(c["uid"]) in ever:
+                    continue
+                detail = f"{c['kind']} {c['status']}" + (
+                    f": {c['result_detail']}" if c["result_detail"] else ""
+                )
+                ep.open(c["vessel_id"], str(c["uid"]), detail=detail)
+        if done:
+            self.resolve_commands(rule, snap, ep, done)
+
+    def resolve_commands(
+        self, rule: AlertRule, snap: Snapshot, ep: Episodes, done: list[dict[str, Any]]
+    ) -> None:
+        open_uids = [s for (r, _, s) in snap.active if r == rule.pk and s]
+        if not open_uids:
+            return
+        failed = Command.objects.filter(uid__in=open_uids).values("uid", "vessel_id", "kind",
+                                                                    "created_at")  # fmt: skip
+        for f in failed:
+            later = [
+                d for d in done
+                if d["vessel_id"] == f["vessel_id"] and d["kind"] == f["kind"]
+                and d["created_at"] > f["created_at"]
+            ]  # fmt: skip
+            if later:
+                ep.resolve(f["vessel_id"], str(f["uid"]), detail=f"{later[0]['uid']} done")
+
+
+class Episodes:
+    """One rule's episodes during a pass: state per (vessel, subject), transitions applied."""
+
+    def __init__(self, rule: AlertRule, snap: Snapshot) -> None:
+        self.rule, self.snap = rule, snap
+        self.opened = self.resolved = 0
+        # (vessel, subject) -> the live Alert (or its row from the snapshot), while active.
+        self.live: dict[tuple[int, str], Any] = {
+            (v, s): row for (r, v, s), row in snap.active.items() if r == rule.pk
+        }
+
+    def observe(
+        self,
+        vessel_id: int,
+        verdict: R.Verdict,
+        *,
+        subject: str = "",
+        value: float | None = None,
+        detail: str = "",
+        fix_id: int | None = None,
+    ) -> None:
+        active = (vessel_id, subject) in self.live
+        _, change = R.step(active, verdict)
+        if change == "open":
+            self.open(vessel_id, subject, value=value, detail=detail, fix_id=fix_id)
+        elif change == "resolve":
+            self.resolve(vessel_id, subject)
+
+    def open(self, vessel_id: int, subject: str, **fields: Any) -> None:
+        alert = alert_open(rule=self.rule, vessel_id=vessel_id, subject=subject,
+                           now=self.snap.now, **fields)  # fmt: skip
+        if alert is None:  # another evaluator opened it first: it is live all the same
+            alert = Alert.objects.filter(
+                rule=self.rule, vessel_id=vessel_id, subject=subject, state__in=ACTIVE_STATES
+            ).first()
+        else:
+            self.opened += 1
+        if alert is not None:
+            self.live[(vessel_id, subject)] = alert
+
+    def resolve(self, vessel_id: int, subject: str, detail: str = "") -> None:
+        live = self.live.pop((vessel_id, subject), None)
+        if live is None:
+            return
+        alert = live if isinstance(live, Alert) else _alert(live["id"])
+        if alert is not None and alert_resolve(alert=alert, now=self.snap.now, detail=detail):
+            self.resolved += 1
+
+
+def active_rules() -> list[AlertRule]:
+    return list(AlertRule.objects.filter(active=True).select_related("fence").order_by("pk"))
+
+
+def _alert(pk: int) -> Alert | None:
+    return Alert.objects.select_related("rule", "vessel").filter(pk=pk).first()
+
+
+def _num(value: Any) -> float | None:
+    return float(value) if R.is_number(value) else None
+
+
+def _chunks(items: list[int], size: int) -> Iterable[list[int]]:
+    for i in range(0, len(items), size):
+        yield items[i : i + size]
