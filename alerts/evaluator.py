@@ -71,6 +71,9 @@ FIX_RULES = (RuleKind.BATTERY, RuleKind.READING, RuleKind.FENCE)
 FIX_FIELDS = ("id", "vessel_id", "recorded_at", "received_at", "lat", "lon", "battery_v",
               "readings")  # fmt: skip
 ENDED = (Status.DONE, Status.FAILED, Status.EXPIRED)
+# An active episode's fields, enough to resolve it without reading it again.
+ALERT_FIELDS = ("id", "rule_id", "vessel_id", "kind", "subject", "state", "opened_at",
+                "acknowledged_at", "acknowledged_by", "detail", "value", "fix_id")  # fmt: skip
 
 
 @dataclass
@@ -115,7 +118,8 @@ class Snapshot:
     now: dt.datetime
     vessels: dict[int, dict[str, Any]]
     by_kind: dict[str, list[int]]
-    active: dict[tuple[int, int, str], dict[str, Any]]
+    # Rule id -> (vessel id, subject) -> the active episode's row.
+    active: dict[int, dict[tuple[int, str], dict[str, Any]]]
     fixes: dict[int, list[tuple[Any, ...]]]
     channels: dict[str, tuple[float | None, float | None]]
     commands: list[dict[str, Any]]
@@ -153,6 +157,8 @@ class Evaluator:
         self.seen: dict[int, dt.datetime] = {}
         # Vessel id -> (hour the means were read in, hour start -> mean battery volts).
         self.hourly: dict[int, tuple[int, dict[int, float]]] = {}
+        # Vessel id -> empty volts -> endurance hours, for the hour of self.hourly.
+        self.estimates: dict[int, dict[float, float | None]] = {}
         self.aside = PushAside(clock)
 
     # The pass -----------------------------------------------------------------------------
@@ -190,12 +196,9 @@ class Evaluator:
         by_kind: dict[str, list[int]] = defaultdict(list)
         for v in vessels.values():
             by_kind[v["kind"]].append(v["id"])
-        active = {
-            (a["rule_id"], a["vessel_id"], a["subject"]): a
-            for a in Alert.objects.filter(state__in=ACTIVE_STATES).values(
-                "id", "rule_id", "vessel_id", "subject", "opened_at"
-            )
-        }
+        active: dict[int, dict[tuple[int, str], dict[str, Any]]] = defaultdict(dict)
+        for a in Alert.objects.filter(state__in=ACTIVE_STATES).values(*ALERT_FIELDS):
+            active[a["rule_id"]][(a["vessel_id"], a["subject"])] = a
         fixes = self.new_fixes() if kinds & set(FIX_RULES) else {}
         channels = {}
         if RuleKind.READING in kinds:
@@ -292,7 +295,8 @@ class Evaluator:
             if fence.vessel_id is not None and fence.vessel_id != vessel_id:
                 continue
             for fix in snap.fixes.get(vessel_id, ()):
-                verdict = R.fence(fix[4], fix[5], fence.inclusion, inside)
+                active = ep.is_active(vessel_id)
+                verdict = R.fence(fix[4], fix[5], fence.inclusion, inside, need_clear=active)
                 ep.observe(vessel_id, verdict, detail=f"{detail} at {fix[4]:.5f}, {fix[5]:.5f}",
                            fix_id=fix[0])  # fmt: skip
 
@@ -301,13 +305,23 @@ class Evaluator:
             return
         empty = rule.minimum if rule.minimum is not None else settings.ALERTS_BATTERY_EMPTY_V
         vessels = snap.scope(rule)
-        means = self.hourly_means(vessels, snap.now)
-        for vessel_id in vessels:
-            hours = endurance_hours(means.get(vessel_id, {}), empty_v=empty,
-                                    now_s=snap.now.timestamp())  # fmt: skip
+        for vessel_id, hours in self.endurance(vessels, empty, snap.now).items():
             value = None if hours is None or math.isinf(hours) else round(hours, 2)
             detail = f"endurance {value} h to {empty} V, below {rule.threshold} h"
             ep.observe(vessel_id, R.endurance(hours, rule.threshold), value=value, detail=detail)
+
+    def endurance(self, vessel_ids: list[int], empty: float, now: dt.datetime) -> dict[int, Any]:
+        """Each vessel's endurance to ``empty`` volts: computed once per clock hour, since the
+        hourly means it comes from change only when an hour ends."""
+        means = self.hourly_means(vessel_ids, now)
+        answers = {}
+        for vessel_id in vessel_ids:
+            cache = self.estimates.setdefault(vessel_id, {})
+            if empty not in cache:
+                cache[empty] = endurance_hours(means[vessel_id], empty_v=empty,
+                                               now_s=now.timestamp())  # fmt: skip
+            answers[vessel_id] = cache[empty]
+        return answers
 
     def hourly_means(self, vessel_ids: list[int], now: dt.datetime) -> dict[int, dict[int, float]]:
         """Each vessel's hourly battery means (two days), read again once per clock hour."""
@@ -324,6 +338,7 @@ class Evaluator:
                     rows[vessel_id].append((start, channels))
             for vessel_id in stale:
                 self.hourly[vessel_id] = (hour, hourly_means_from_channels(rows[vessel_id]))
+                self.estimates.pop(vessel_id, None)
         return {v: self.hourly[v][1] for v in vessel_ids}
 
     def judge_command(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
@@ -351,7 +366,7 @@ class Evaluator:
     def resolve_commands(
         self, rule: AlertRule, snap: Snapshot, ep: Episodes, done: list[dict[str, Any]]
     ) -> None:
-        open_uids = [s for (r, _, s) in snap.active if r == rule.pk and s]
+        open_uids = [s for (_, s) in snap.active.get(rule.pk, {}) if s]
         if not open_uids:
             return
         failed = Command.objects.filter(uid__in=open_uids).values("uid", "vessel_id", "kind",
@@ -373,9 +388,10 @@ class Episodes:
         self.rule, self.snap = rule, snap
         self.opened = self.resolved = 0
         # (vessel, subject) -> the live Alert (or its row from the snapshot), while active.
-        self.live: dict[tuple[int, str], Any] = {
-            (v, s): row for (r, v, s), row in snap.active.items() if r == rule.pk
-        }
+        self.live: dict[tuple[int, str], Any] = dict(snap.active.get(rule.pk, {}))
+
+    def is_active(self, vessel_id: int, subject: str = "") -> bool:
+        return (vessel_id, subject) in self.live
 
     def observe(
         self,
@@ -410,17 +426,15 @@ class Episodes:
         live = self.live.pop((vessel_id, subject), None)
         if live is None:
             return
-        alert = live if isinstance(live, Alert) else _alert(live["id"])
-        if alert is not None and alert_resolve(alert=alert, now=self.snap.now, detail=detail):
+        alert = live if isinstance(live, Alert) else Alert(**live)
+        alert.rule = self.rule  # its channels are prefetched
+        if alert_resolve(alert=alert, now=self.snap.now, detail=detail):
             self.resolved += 1
 
 
 def active_rules() -> list[AlertRule]:
-    return list(AlertRule.objects.filter(active=True).select_related("fence").order_by("pk"))
-
-
-def _alert(pk: int) -> Alert | None:
-    return Alert.objects.select_related("rule", "vessel").filter(pk=pk).first()
+    rules = AlertRule.objects.filter(active=True).select_related("fence")
+    return list(rules.prefetch_related("channels").order_by("pk"))
 
 
 def _num(value: Any) -> float | None:

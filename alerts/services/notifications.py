@@ -18,7 +18,8 @@ def notifications_queue(*, alert: Alert, event: str, now: dt.datetime | None = N
     Called inside the transaction that changed the alert, so an event and its messages commit
     (or roll back) together."""
     now = now or timezone.now()
-    channels = alert.rule.channels.filter(active=True)
+    # .all(): the evaluator prefetches each rule's channels once per pass.
+    channels = [c for c in alert.rule.channels.all() if c.active]
     rows = [
         Notification(alert=alert, channel=c, event=event, created_at=now, due_at=now)
         for c in channels

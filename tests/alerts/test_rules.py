@@ -140,3 +140,16 @@ def test_a_command_opens_on_failed_or_expired_only() -> None:
     assert R.command("failed") is R.HOLDS
     assert R.command("expired") is R.HOLDS
     assert R.command("done") is R.KEEP
+
+
+def test_a_clear_fence_skips_the_probes() -> None:
+    asked = []
+
+    def counting(lat: float, lon: float) -> bool:
+        asked.append((lat, lon))
+        return inside_square(lat, lon)
+
+    assert R.fence(0.005, 0.005, True, counting, need_clear=False) is R.KEEP
+    assert len(asked) == 1
+    assert R.fence(0.005, 0.005, True, counting) is R.CLEARS
+    assert len(asked) == 1 + 1 + len(R.FENCE_PROBE_BEARINGS)
