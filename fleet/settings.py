@@ -424,13 +424,15 @@ SMS_RATE_WINDOW_S = env_int("SMS_RATE_WINDOW_S", 10 * 60)
 # received_at before its transaction commits); an endurance rule without its own empty voltage
 # (the rule's minimum) uses ALERTS_BATTERY_EMPTY_V; the loop thins old fixes every
 # ALERTS_PRUNE_EVERY_S seconds (0: it never does; run manage.py prune_fixes from cron instead).
-ALERTS_PERIOD_S = env_float("ALERTS_PERIOD_S", 10.0)
+ALERTS_PERIOD_S = env_float("ALERTS_PERIOD_S", 3.0)
 ALERTS_FIX_OVERLAP_S = env_float("ALERTS_FIX_OVERLAP_S", 30.0)
 ALERTS_BATTERY_EMPTY_V = env_float("ALERTS_BATTERY_EMPTY_V", 10.5)
 ALERTS_PRUNE_EVERY_S = env_int("ALERTS_PRUNE_EVERY_S", 0)
 if ALERTS_PERIOD_S <= 0 or ALERTS_FIX_OVERLAP_S < 0 or ALERTS_PRUNE_EVERY_S < 0:
-    raise ValueError("ALERTS_PERIOD_S must be positive; ALERTS_FIX_OVERLAP_S and "
-                     "ALERTS_PRUNE_EVERY_S must not be negative")
+    raise ValueError(
+        "ALERTS_PERIOD_S must be positive; ALERTS_FIX_OVERLAP_S and "
+        "ALERTS_PRUNE_EVERY_S must not be negative"
+    )
 
 # The cache holds the API throttles' and the failed logins' counters. `locmem` counts in each
 # process alone, so under N gunicorn workers a limit is up to N times looser; `file` (in the
