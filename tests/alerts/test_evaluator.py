@@ -4,6 +4,7 @@ open while its condition holds and resolves itself when it clears."""
 from __future__ import annotations
 
 import datetime as dt
+import math
 from typing import Any
 
 import pytest
@@ -317,3 +318,13 @@ def test_acknowledging_records_who_and_when_and_audits(
     evaluator.run_pass()
     assert states(rule) == [("spab", "resolved")]
     assert events(rule) == ["alert.opened", "alert.acknowledged", "alert.resolved"]
+
+
+def test_the_vessel_panels_endurance_is_the_rules(clock: Any, vessel_a: Vessel, glider) -> None:
+    from alerts.selectors import vessel_endurance_hours
+
+    drain(vessel_a, 50, start_v=12.5, per_hour=0.02)
+    drain(glider, 50, start_v=12.5, per_hour=0.0)
+    assert vessel_endurance_hours(vessel=vessel_a, empty_v=11.0) == pytest.approx(29.6, abs=0.2)
+    assert vessel_endurance_hours(vessel=glider) == math.inf
+    assert vessel_endurance_hours(vessel=vessel_create(slug="new", name="New")) is None
