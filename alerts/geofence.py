@@ -2,9 +2,15 @@
 point is inside it.
 
 STAND-IN, to be replaced at merge: the shared fence contract is edge_client/contract/fence.py
-(written on the fence branch, with the same two questions: ``contains(fence_wire, lat, lon)`` and
-a model-to-wire converter). The evaluator imports only ``fence_wire`` and ``contains`` from
-here, so at merge this module becomes two re-exports of the contract's.
+(on the fence branch: ``contains(fence, lat, lon)`` and ``wire_fence(id=, name=, inclusion=,
+geometry=, radius_m=)``, the same wire shape). The evaluator imports only ``fence_wire`` and
+``contains`` from here, so at merge this module becomes::
+
+    from edge_client.contract.fence import contains, wire_fence
+
+    def fence_wire(fence):
+        return wire_fence(id=fence.pk, name=fence.name, inclusion=fence.inclusion,
+                          geometry=fence.geometry, radius_m=fence.radius_m)
 
 Wire shape (stand-in): {"inclusion": bool, "polygon": [[lat, lon], ...]} (outer ring, not
 closed) or {"inclusion": bool, "circle": {"lat", "lon", "radius_m"}}.

@@ -128,3 +128,19 @@ def test_sigterm_stops_a_real_run_alerts_cleanly(
                 proc.kill()
     text = log.read_text()
     assert "run_alerts: stopped" in text and "Traceback" not in text, text
+
+
+@pytest.mark.django_db(transaction=True)
+def test_pruning_runs_beside_the_passes_when_configured(settings: Any, caplog: Any) -> None:
+    settings.ALERTS_PRUNE_EVERY_S = 3600
+    command = RunAlerts(stdout=StringIO())
+    command.prune_when_due()
+    first = command.pruner
+    assert first is not None
+    first.join(10)
+    command.prune_when_due()
+    assert command.pruner is first  # not again within the hour
+    try:
+        import telemetry.retention  # noqa: F401
+    except ImportError:
+        assert "there is no prune" in caplog.text

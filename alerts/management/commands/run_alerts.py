@@ -34,7 +34,6 @@ from django.utils import timezone
 
 from alerts.evaluator import Evaluator
 from alerts.services import notifications
-from telemetry import services as telemetry_services
 
 logger = logging.getLogger(__name__)
 
@@ -145,12 +144,15 @@ class Command(BaseCommand):
         self.pruner.start()
 
     def _prune(self) -> None:
-        prune = getattr(telemetry_services, "fixes_prune", None)
         try:
-            if prune is None:
-                logger.warning("run_alerts: ALERTS_PRUNE_EVERY_S is set but there is no prune")
-                return
-            prune()
+            # telemetry's retention (its own branch until merged: then a plain import on top).
+            from telemetry.retention import fixes_prune
+        except ImportError:
+            logger.warning("run_alerts: ALERTS_PRUNE_EVERY_S is set but there is no prune")
+            return
+        try:
+            # Thinning stops between two reads once the loop is asked to stop.
+            fixes_prune(now=timezone.now(), stop=lambda: self.stopping)
         except Exception:
             logger.exception("run_alerts: pruning fixes failed; trying again later")
         finally:
