@@ -67,6 +67,8 @@ RETRY_MAX_S = 3600.0
 COMMAND_LOOKBACK = dt.timedelta(hours=1)
 # Hourly means kept per vessel for endurance: two days and the hour in progress.
 ENDURANCE_HOURS = 49
+# ... of which the newest few are read again each hour (the overview may rebuild them late).
+REREAD_HOURS = 3
 FIX_RULES = (RuleKind.BATTERY, RuleKind.READING, RuleKind.FENCE)
 FIX_FIELDS = ("id", "vessel_id", "recorded_at", "received_at", "lat", "lon", "battery_v",
               "readings")  # fmt: skip
@@ -265,8 +267,9 @@ class Evaluator:
             for fix in snap.fixes.get(vessel_id, ()):
                 volts = fix[6]
                 verdict = R.battery(volts, rule.threshold, rule.maximum)
-                detail = f"battery {volts} V, below {rule.threshold} V"
-                ep.observe(vessel_id, verdict, value=volts, detail=detail, fix_id=fix[0])
+                if ep.changes(vessel_id, verdict):  # most fixes change nothing: say nothing
+                    detail = f"battery {volts} V, below {rule.threshold} V"
+                    ep.observe(vessel_id, verdict, value=volts, detail=detail, fix_id=fix[0])
 
     def judge_reading(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
         low, high = snap.channels.get(rule.reading, (None, None))
@@ -276,9 +279,11 @@ class Evaluator:
         for vessel_id in snap.scope(rule):
             for fix in snap.fixes.get(vessel_id, ()):
                 value = (fix[7] or {}).get(rule.reading)
-                detail = f"{rule.reading} {value}, outside {limits.low} … {limits.high}"
                 verdict = R.reading(value, limits)
-                ep.observe(vessel_id, verdict, value=_num(value), detail=detail, fix_id=fix[0])
+                if ep.changes(vessel_id, verdict):
+                    detail = f"{rule.reading} {value}, outside {limits.low} … {limits.high}"
+                    ep.observe(vessel_id, verdict, value=_num(value), detail=detail,
+                               fix_id=fix[0])  # fmt: skip
 
     def judge_fence(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
         fence = rule.fence
@@ -297,8 +302,9 @@ class Evaluator:
             for fix in snap.fixes.get(vessel_id, ()):
                 active = ep.is_active(vessel_id)
                 verdict = R.fence(fix[4], fix[5], fence.inclusion, inside, need_clear=active)
-                ep.observe(vessel_id, verdict, detail=f"{detail} at {fix[4]:.5f}, {fix[5]:.5f}",
-                           fix_id=fix[0])  # fmt: skip
+                if ep.changes(vessel_id, verdict):
+                    ep.observe(vessel_id, verdict, fix_id=fix[0],
+                               detail=f"{detail} at {fix[4]:.5f}, {fix[5]:.5f}")  # fmt: skip
 
     def judge_endurance(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
         if rule.threshold is None:
@@ -324,21 +330,33 @@ class Evaluator:
         return answers
 
     def hourly_means(self, vessel_ids: list[int], now: dt.datetime) -> dict[int, dict[int, float]]:
-        """Each vessel's hourly battery means (two days), read again once per clock hour."""
+        """Each vessel's hourly battery means (two days), brought up to date once per clock
+        hour: a vessel seen before has only its last REREAD_HOURS read again (the overview
+        loop may rebuild a recent hour after late fixes); a new one all ENDURANCE_HOURS."""
         hour = math.floor(now.timestamp() / HOUR_S) * HOUR_S
         stale = [v for v in vessel_ids if self.hourly.get(v, (None,))[0] != hour]
-        if stale:
-            rows: dict[int, list[tuple[int, Any]]] = defaultdict(list)
-            for chunk in _chunks(stale, 500):  # SQLite's bound-parameter limit
+        if not stale:
+            return {v: self.hourly[v][1] for v in vessel_ids}
+        oldest = hour - ENDURANCE_HOURS * HOUR_S
+        known = [v for v in stale if v in self.hourly]
+        since = {v: oldest for v in stale if v not in self.hourly}
+        for v in known:
+            since[v] = max(oldest, self.hourly[v][0] - REREAD_HOURS * HOUR_S)
+        rows: dict[int, list[tuple[int, Any]]] = defaultdict(list)
+        for start in set(since.values()):
+            group = [v for v in stale if since[v] == start]
+            for chunk in _chunks(group, 500):  # SQLite's bound-parameter limit
                 buckets = TrackBucket.objects.filter(
-                    vessel_id__in=chunk, width=HOUR_S,
-                    start__gte=hour - ENDURANCE_HOURS * HOUR_S, start__lt=hour,
-                ).values_list("vessel_id", "start", "channels")  # fmt: skip
-                for vessel_id, start, channels in buckets:
-                    rows[vessel_id].append((start, channels))
-            for vessel_id in stale:
-                self.hourly[vessel_id] = (hour, hourly_means_from_channels(rows[vessel_id]))
-                self.estimates.pop(vessel_id, None)
+                    vessel_id__in=chunk, width=HOUR_S, start__gte=start, start__lt=hour
+                ).values_list("vessel_id", "start", "channels")
+                for vessel_id, bucket_start, channels in buckets:
+                    rows[vessel_id].append((bucket_start, channels))
+        for v in stale:
+            means = self.hourly[v][1] if v in self.hourly else {}
+            means = {t: m for t, m in means.items() if oldest <= t < since[v]}
+            means.update(hourly_means_from_channels(rows[v]))
+            self.hourly[v] = (hour, means)
+            self.estimates.pop(v, None)
         return {v: self.hourly[v][1] for v in vessel_ids}
 
     def judge_command(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
@@ -392,6 +410,10 @@ class Episodes:
 
     def is_active(self, vessel_id: int, subject: str = "") -> bool:
         return (vessel_id, subject) in self.live
+
+    def changes(self, vessel_id: int, verdict: R.Verdict, subject: str = "") -> bool:
+        """Would ``verdict`` open or resolve an episode? (The cheap question asked per fix.)"""
+        return verdict is (R.CLEARS if (vessel_id, subject) in self.live else R.HOLDS)
 
     def observe(
         self,

@@ -328,3 +328,20 @@ def test_the_vessel_panels_endurance_is_the_rules(clock: Any, vessel_a: Vessel, 
     assert vessel_endurance_hours(vessel=vessel_a, empty_v=11.0) == pytest.approx(29.6, abs=0.2)
     assert vessel_endurance_hours(vessel=glider) == math.inf
     assert vessel_endurance_hours(vessel=vessel_create(slug="new", name="New")) is None
+
+
+def test_an_hour_later_the_means_are_brought_up_to_date_not_read_whole(
+    clock: Any, vessel_a: Vessel
+) -> None:
+    drain(vessel_a, 50, start_v=12.5, per_hour=0.02)
+    evaluator = Evaluator()
+    before = evaluator.endurance([vessel_a.pk], 11.0, timezone.now())[vessel_a.pk]
+    clock.shift(3600)
+    # A sharp fall in the hour that just ended.
+    report(vessel_a, when=timezone.now() - dt.timedelta(minutes=30), battery_v=10.0)
+    track_overview_rebuild(vessel=vessel_a)
+    after = evaluator.endurance([vessel_a.pk], 11.0, timezone.now())[vessel_a.pk]
+    fresh = Evaluator().endurance([vessel_a.pk], 11.0, timezone.now())[vessel_a.pk]
+    assert after == fresh != before
+    whole = Evaluator().hourly_means([vessel_a.pk], timezone.now())[vessel_a.pk]
+    assert evaluator.hourly[vessel_a.pk][1] == whole
