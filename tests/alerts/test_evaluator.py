@@ -345,3 +345,26 @@ def test_an_hour_later_the_means_are_brought_up_to_date_not_read_whole(
     assert after == fresh != before
     whole = Evaluator().hourly_means([vessel_a.pk], timezone.now())[vessel_a.pk]
     assert evaluator.hourly[vessel_a.pk][1] == whole
+
+
+def test_a_fix_committed_after_a_pass_that_looked_past_its_stamp_is_still_judged(
+    clock: Any, evaluator: Evaluator, make_rule, vessel_a: Vessel, settings: Any
+) -> None:
+    """Ingest stamps received_at before its transaction commits: a fix stamped 5 s before a
+    pass may only become visible after it. The next pass reads back ALERTS_FIX_OVERLAP_S."""
+    rule = make_rule(kind="battery", threshold=11.5)
+    clock.shift(10)
+    evaluator.run_pass()
+    stamped = timezone.now() - dt.timedelta(seconds=5)
+    fix_ingest(vessel=vessel_a, records=[{"time": stamped.isoformat(), "lat": 0, "lon": 0,
+                                          "battery_v": 11.0}], now=stamped)  # fmt: skip
+    clock.shift(10)
+    evaluator.run_pass()
+    assert states(rule) == [("spab", "open")]
+    # Older than the overlap: a pass does not read that far back.
+    stale = timezone.now() - dt.timedelta(seconds=settings.ALERTS_FIX_OVERLAP_S + 20)
+    late = vessel_create(slug="late", name="Late")
+    record = {"time": stale.isoformat(), "lat": 0, "lon": 0, "battery_v": 11.0}
+    fix_ingest(vessel=late, records=[record], now=stale)
+    evaluator.run_pass()
+    assert states(rule) == [("spab", "open")]
