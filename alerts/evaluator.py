@@ -221,10 +221,8 @@ class Evaluator:
         )
         fixes: dict[int, list[tuple[Any, ...]]] = defaultdict(list)
         for row in rows:
-            if row[0] in self.seen:
-                continue
-            self.seen[row[0]] = row[3]
-            fixes[row[1]].append(row)
+            if row[0] not in self.seen:
+                fixes[row[1]].append(row)
         return fixes
 
     def ended_commands(self) -> list[dict[str, Any]]:
@@ -237,10 +235,14 @@ class Evaluator:
         )
 
     def advance(self, snap: Snapshot, now: dt.datetime) -> None:
-        """Move the cursors to this pass's start; forget ids older than the overlap window."""
+        """Move the cursors to this pass's start; note the fixes judged (only now: a pass that
+        failed before judging them leaves them to the next); forget ids older than the overlap
+        window, which the next pass does not read again."""
         self.fix_cursor = self.command_cursor = now
         horizon = now - self.overlap
         self.seen = {pk: at for pk, at in self.seen.items() if at >= horizon}
+        for rows in snap.fixes.values():
+            self.seen.update((row[0], row[3]) for row in rows if row[3] >= horizon)
 
     # Judging one rule -----------------------------------------------------------------------
 

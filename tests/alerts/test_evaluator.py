@@ -368,3 +368,18 @@ def test_a_fix_committed_after_a_pass_that_looked_past_its_stamp_is_still_judged
     fix_ingest(vessel=late, records=[record], now=stale)
     evaluator.run_pass()
     assert states(rule) == [("spab", "open")]
+
+
+def test_a_pass_that_fails_before_judging_leaves_its_fixes_to_the_next(
+    clock: Any, evaluator: Evaluator, make_rule, vessel_a: Vessel, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rule = make_rule(kind="battery", threshold=11.5)
+    report(vessel_a, battery_v=11.0)
+    with monkeypatch.context() as m:
+        m.setattr(SensorChannel.objects, "values", lambda *a: 1 / 0)  # the database fails
+        make_rule(kind="reading", reading="humidity_pct", maximum=70)
+        with pytest.raises(ZeroDivisionError):
+            evaluator.run_pass()
+    clock.shift(10)
+    evaluator.run_pass()
+    assert states(rule) == [("spab", "open")]
