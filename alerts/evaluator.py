@@ -259,8 +259,10 @@ class Evaluator:
             limit = R.overdue_limit_s(v["telemetry_period_s"], rule.threshold)
             seen = v["last_seen_at"]
             silent = (snap.now - seen).total_seconds() if seen else None
-            detail = f"silent {silent:.0f} s (limit {limit:.0f} s)" if silent else ""
-            ep.observe(vessel_id, R.overdue(silent, limit), value=silent, detail=detail)
+            verdict = R.overdue(silent, limit)
+            if ep.changes(vessel_id, verdict):
+                detail = f"silent {silent:.0f} s (limit {limit:.0f} s)"
+                ep.observe(vessel_id, verdict, value=silent, detail=detail)
 
     def judge_battery(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
         if rule.threshold is None:
@@ -314,9 +316,11 @@ class Evaluator:
         empty = rule.minimum if rule.minimum is not None else settings.ALERTS_BATTERY_EMPTY_V
         vessels = snap.scope(rule)
         for vessel_id, hours in self.endurance(vessels, empty, snap.now).items():
-            value = None if hours is None or math.isinf(hours) else round(hours, 2)
-            detail = f"endurance {value} h to {empty} V, below {rule.threshold} h"
-            ep.observe(vessel_id, R.endurance(hours, rule.threshold), value=value, detail=detail)
+            verdict = R.endurance(hours, rule.threshold)
+            if ep.changes(vessel_id, verdict):
+                value = None if hours is None or math.isinf(hours) else round(hours, 2)
+                detail = f"endurance {value} h to {empty} V, below {rule.threshold} h"
+                ep.observe(vessel_id, verdict, value=value, detail=detail)
 
     def endurance(self, vessel_ids: list[int], empty: float, now: dt.datetime) -> dict[int, Any]:
         """Each vessel's endurance to ``empty`` volts: computed once per clock hour, since the

@@ -171,8 +171,9 @@ def one_period(vessels: list[Any], rng: random.Random, flips: int = 0) -> None:
         odd = v.pk in odd_vessels
         record = {
             "time": now.isoformat(),
-            "lat": -31.0 + rng.uniform(-0.01, 0.01) if odd else -32.0 + rng.uniform(-0.1, 0.1),
-            "lon": 115.7 + rng.uniform(-0.1, 0.1),
+            # Normal ones well inside every inclusion fence (the nearest edge is 13 km away).
+            "lat": -31.0 + rng.uniform(-0.01, 0.01) if odd else -32.0 + rng.uniform(-0.05, 0.05),
+            "lon": 115.7 + rng.uniform(-0.05, 0.05),
             "battery_v": round(rng.uniform(11.0, 11.4) if odd else rng.uniform(12.0, 12.8), 2),
             "readings": {
                 "humidity_pct": round(rng.uniform(75, 90) if odd else rng.uniform(30, 50), 1),
