@@ -14,7 +14,7 @@ lint:
 	.venv/bin/ruff check . && .venv/bin/ruff format --check .
 	.venv/bin/python manage.py makemigrations --check --dry-run
 
-bench:           ## server, maps, Level 2, SMS, bridge and edge client benchmarks, each against an in-run baseline
+bench:           ## server, maps, Level 2, SMS, bridge, edge client and alerts benchmarks, each against an in-run baseline
 	.venv/bin/python -m bench.server
 	.venv/bin/python -m bench.maps --postgres
 	.venv/bin/python -m bench.level2
@@ -22,3 +22,4 @@ bench:           ## server, maps, Level 2, SMS, bridge and edge client benchmark
 	.venv/bin/python -m bench.bridge
 	.venv/bin/python -m bench.wg_bridge
 	.venv/bin/python -m bench.edge
+	.venv/bin/python -m bench.alerts --postgres
