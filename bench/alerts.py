@@ -3,7 +3,7 @@
     python -m bench.alerts                 # SQLite; PostgreSQL too when DATABASE_URL is set
     python -m bench.alerts --postgres      # both, PostgreSQL in a throwaway database
     python -m bench.alerts --db postgres   # one database only
-    python -m bench.alerts --ingest-s 60   # longer ingest runs (default 30 s of each)
+    python -m bench.alerts --ingest-s 60   # longer ingest runs (default 20 s of each)
 
 Per database, in a child process (bench.settings, DEBUG off) on a fresh database:
 
@@ -19,9 +19,9 @@ Per database, in a child process (bench.settings, DEBUG off) on a fresh database
   and **the naive loop** (for each rule, for each vessel: its new fixes and its active alert
   through the ORM, two queries per pair), timed on 5 rules and scaled to 100;
 - **ingest with and without the evaluator**: single-fix posts through the ingest service in
-  this process, in 2-second windows, with `manage.py run_alerts` beside it (a process of its
-  own, at the default period, as deployed) alternately paused and running; fixes per second,
-  the median of each;
+  this process, in 2-second windows, alternately alone and with `manage.py run_alerts` beside
+  it (a process of its own, at the default period, as deployed); fixes per second, the
+  median of each;
 - **fence to webhook**: when the notifications sender is there (alerts/services/
   notifications.py ``notifications_send_due``), a local HTTP receiver as a webhook channel,
   `run_alerts` at the default period, a fix posted outside a fence at a random moment, the
@@ -37,7 +37,6 @@ import json
 import os
 import random
 import shutil
-import signal
 import statistics
 import subprocess
 import sys
@@ -259,9 +258,9 @@ def naive(rng: random.Random, built: dict[str, Any], sample: int = 5) -> float:
 
 
 def ingest_rates(built: dict[str, Any], seconds: float, env: dict[str, str]) -> dict[str, Any]:
-    """Single-fix posts in short windows, `run_alerts` beside them alternately paused (SIGSTOP,
-    between windows) and running: on a shared machine the load changes by the second, so
-    windows side by side compare better than two long runs apart. Medians of each."""
+    """Single-fix posts in short windows, alternately alone and with `run_alerts` beside them:
+    on a shared machine the load changes by the second, so windows side by side compare
+    better than two long runs apart. Medians of each."""
     from django.utils import timezone
 
     from telemetry.services import fix_ingest
@@ -280,24 +279,22 @@ def ingest_rates(built: dict[str, Any], seconds: float, env: dict[str, str]) -> 
             count += 1
         return count / window
 
-    without, with_ = [], []
-    proc = _run_alerts(env)
-    try:
-        time.sleep(3)  # started, its first pass done
-        cpu, running_s = 0.0, 0.0
-        for _ in range(max(2, int(seconds / window))):
-            os.kill(proc.pid, signal.SIGSTOP)
-            without.append(run())
-            os.kill(proc.pid, signal.SIGCONT)
+    without, with_, cpu = [], [], 0.0
+    for _ in range(max(2, int(seconds / window))):
+        without.append(run())
+        # A fresh loop each time, settled (its first pass done) before the window; stopped
+        # with SIGTERM after it, which it obeys between passes, never inside a transaction
+        # (pausing it with SIGSTOP could hold SQLite's write lock over the next window).
+        proc = _run_alerts(env)
+        try:
+            time.sleep(2.5)
             before = _cpu_s(proc.pid)
             with_.append(run())
             cpu += _cpu_s(proc.pid) - before
-            running_s += window
-    finally:
-        os.kill(proc.pid, signal.SIGCONT)
-        _stop(proc)
+        finally:
+            _stop(proc)
     return {"without": statistics.median(without), "with": statistics.median(with_),
-            "evaluator_cpu": cpu / running_s, "load": os.getloadavg()[0],
+            "evaluator_cpu": cpu / (window * len(with_)), "load": os.getloadavg()[0],
             "cores": os.cpu_count(), "windows": len(with_)}  # fmt: skip
 
 
@@ -486,7 +483,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m bench.alerts", description=__doc__.split("\n")[0])
     p.add_argument("--postgres", action="store_true", help="also PostgreSQL (127.0.0.1)")
     p.add_argument("--db", choices=["sqlite", "postgres"], help="only this database")
-    p.add_argument("--ingest-s", type=float, default=30.0, help="seconds of each ingest kind")
+    p.add_argument("--ingest-s", type=float, default=20.0, help="seconds of each ingest kind")
     p.add_argument("--latency", type=int, default=5, help="fence-to-webhook trials (0: none)")
     p.add_argument("--_child", action="store_true", help=argparse.SUPPRESS)
     opts = p.parse_args(argv)
