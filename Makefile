@@ -14,7 +14,7 @@ lint:
 	.venv/bin/ruff check . && .venv/bin/ruff format --check .
 	.venv/bin/python manage.py makemigrations --check --dry-run
 
-bench:           ## server, maps, Level 2, SMS, bridge, edge client and retention benchmarks, each against an in-run baseline
+bench:           ## server, maps, Level 2, SMS, bridge, edge client, notification, retention and alerts benchmarks, each against an in-run baseline
 	.venv/bin/python -m bench.server
 	.venv/bin/python -m bench.maps --postgres
 	.venv/bin/python -m bench.level2
@@ -24,3 +24,4 @@ bench:           ## server, maps, Level 2, SMS, bridge, edge client and retentio
 	.venv/bin/python -m bench.edge
 	.venv/bin/python -m bench.notify
 	.venv/bin/python -m bench.retention --postgres
+	.venv/bin/python -m bench.alerts --postgres

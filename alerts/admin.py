@@ -15,8 +15,8 @@ from django.utils.html import format_html
 
 from alerts import fence_admin  # noqa: F401  (registers the fences' admin)
 from alerts.models import Alert, AlertRule, AlertState, ChannelKind, NotificationChannel
+from alerts.services.alerts import alert_acknowledge
 from alerts.services.channels import notification_channel_delete, notification_channel_update
-from alerts.services.interim import alert_acknowledge
 from alerts.services.notifications import notification_channel_create
 from alerts.services.rules import (
     RULE_FIELDS,
@@ -171,8 +171,9 @@ class AlertAdmin(admin.ModelAdmin):
     def acknowledge(self, request: HttpRequest, queryset: QuerySet[Alert]) -> None:
         done = 0
         for alert in queryset.filter(state=AlertState.OPEN):
-            alert_acknowledge(alert=alert, by=request.user.get_username(), now=timezone.now())
-            done += 1
+            done += alert_acknowledge(
+                alert=alert, by=request.user.get_username(), now=timezone.now()
+            )
         left = queryset.count() - done
         messages.success(request, f"Acknowledged {done} alert(s).")
         if left:

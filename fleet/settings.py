@@ -48,6 +48,16 @@ def env_int(name: str, default: int) -> int:
         raise ValueError(f"{name}={raw!r} is not an integer") from None
 
 
+def env_float(name: str, default: float) -> float:
+    raw = os.environ.get(name)
+    if raw is None or raw.strip() == "":
+        return default
+    try:
+        return float(raw)
+    except ValueError:
+        raise ValueError(f"{name}={raw!r} is not a number") from None
+
+
 def env_rate(name: str, default: str) -> str | None:
     """A request rate in DRF's form (`600/min`: per s, min, hour or day), or `off` (None)."""
     raw = os.environ.get(name)
@@ -462,6 +472,21 @@ if ALERTS_NOTIFY_FLOOD < 0 or ALERTS_NOTIFY_MAX_ATTEMPTS < 1 or ALERTS_HTTP_TIME
     raise ValueError(
         "ALERTS_NOTIFY_FLOOD must be 0 or more, ALERTS_NOTIFY_MAX_ATTEMPTS and "
         "ALERTS_HTTP_TIMEOUT_S 1 or more"
+    )
+
+# The alerts evaluator (manage.py run_alerts, alerts/evaluator.py): a pass every ALERTS_PERIOD_S;
+# fixes received up to ALERTS_FIX_OVERLAP_S before the last pass are read again (ingest stamps
+# received_at before its transaction commits); an endurance rule without its own empty voltage
+# (the rule's minimum) uses ALERTS_BATTERY_EMPTY_V; the loop thins old fixes every
+# ALERTS_PRUNE_EVERY_S seconds (0: it never does; run manage.py prune_fixes from cron instead).
+ALERTS_PERIOD_S = env_float("ALERTS_PERIOD_S", 3.0)
+ALERTS_FIX_OVERLAP_S = env_float("ALERTS_FIX_OVERLAP_S", 30.0)
+ALERTS_BATTERY_EMPTY_V = env_float("ALERTS_BATTERY_EMPTY_V", 10.5)
+ALERTS_PRUNE_EVERY_S = env_int("ALERTS_PRUNE_EVERY_S", 0)
+if ALERTS_PERIOD_S <= 0 or ALERTS_FIX_OVERLAP_S < 0 or ALERTS_PRUNE_EVERY_S < 0:
+    raise ValueError(
+        "ALERTS_PERIOD_S must be positive; ALERTS_FIX_OVERLAP_S and "
+        "ALERTS_PRUNE_EVERY_S must not be negative"
     )
 
 # The cache holds the API throttles' and the failed logins' counters. `locmem` counts in each

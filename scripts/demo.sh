@@ -5,7 +5,8 @@
 #   (manage.py simulate_boat), at its own start position and on its own UDP port;
 # - a Wave Glider off Fremantle: the real glider bridge (manage.py run_wg_bridge) between a
 #   simulated C&C box, GSM modem and payload board (manage.py simulate_glider), with its own
-#   database in $SHORESIDE_DATA_DIR/glider and its shore link to this site under its key.
+#   database in $SHORESIDE_DATA_DIR/glider and its shore link to this site under its key;
+# - the alerts loop (manage.py run_alerts) watching them with the seeded rules.
 # Text the glider from another terminal: .venv/bin/python manage.py demo_sms "+61400000001" "#FHEAD 230"
 # Ctrl-C (or SIGTERM to this script) stops everything it started.
 #
@@ -81,6 +82,10 @@ pids+=($!)
 site=$!
 # Keeps the maps' track overview built as the vessels report (map reads never write).
 $py manage.py rebuild_track_overview --loop --interval 5 >"$data/overview.log" 2>&1 &
+pids+=($!)
+# Watches the fleet: the seeded alert rules (overdue, battery, hull humidity) open and resolve
+# alerts, and their notifications are sent from here.
+$py manage.py run_alerts >"$data/alerts.log" 2>&1 &
 pids+=($!)
 if ! $py scripts/netcheck.py answers "$server/admin/login/" --pid "$site" --timeout 120; then
   say "the site did not start; its log ($data/site.log) ends:"

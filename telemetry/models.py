@@ -38,7 +38,11 @@ class Fix(models.Model):
             ),
         ]
         # For the admin's newest-first list across all vessels.
-        indexes = [models.Index(fields=["-recorded_at"], name="fix_recorded_desc")]
+        indexes = [
+            models.Index(fields=["-recorded_at"], name="fix_recorded_desc"),
+            # The alerts evaluator's "fixes received since the last pass" (alerts/evaluator.py).
+            models.Index(fields=["received_at"], name="fix_received_at"),
+        ]
 
     def __str__(self) -> str:
         return f"{self.vessel_id} @ {self.recorded_at:%Y-%m-%d %H:%M:%S}"

@@ -25,7 +25,7 @@ from alerts.api.serializers import (
     who,
 )
 from alerts.models import Alert, AlertRule, AlertState, NotificationChannel
-from alerts.services.interim import alert_acknowledge
+from alerts.services.alerts import alert_acknowledge
 from alerts.services.notifications import notification_channel_create
 from alerts.services.rules import alert_rule_delete
 from vessels.api.parsers import JSONParser
@@ -129,7 +129,9 @@ class AlertViewSet(mixins.ListModelMixin, mixins.RetrieveModelMixin, viewsets.Ge
         alert = self.get_object()
         if alert.state == AlertState.RESOLVED:
             raise AlertConflict("the alert is resolved; there is nothing to acknowledge")
-        alert = alert_acknowledge(alert=alert, by=request.user.get_username(), now=timezone.now())
+        # Already acknowledged (by someone else, a moment ago) is answered as it stands.
+        alert_acknowledge(alert=alert, by=request.user.get_username(), now=timezone.now())
+        alert.refresh_from_db()
         return Response(AlertSerializer(alert).data)
 
 

@@ -20,6 +20,7 @@ import requests
 from django.contrib.auth.models import User
 from django.core.management import CommandError, call_command
 
+from alerts.models import AlertRule
 from commands.models import Command
 from commands.services import command_enqueue
 from edge_client.contract.geo import distance_m
@@ -105,6 +106,9 @@ def test_seed_demo_makes_a_usable_fleet(tmp_path: Path) -> None:
     # Running it again keeps the fleet and its history and issues fresh keys.
     run_command("seed_demo", "--password", "demo-pw-2", "--keys-file", str(keys_file))
     assert Vessel.objects.count() == 3
+    # The alerts loop the demo runs has rules to watch: once each, however often it is seeded.
+    kinds = sorted(AlertRule.objects.values_list("kind", flat=True))
+    assert kinds == ["battery", "overdue", "reading"]
 
 
 def run_command(*args: str) -> tuple[str, str]:
@@ -214,8 +218,9 @@ def test_the_demo_glider_is_live_takes_an_fhead_and_an_sms_and_ctrl_c_stops_it_a
 def test_stopping_the_demo_script_alone_stops_everything_it_started(demo: Demo) -> None:
     demo.ready()
     running = "\n".join(demo.processes())
-    for part in ("gunicorn", "rebuild_track_overview", "simulate_boat", "edge_client.sim",
-                 "edge_client run", "simulate_glider", "run_wg_bridge"):  # fmt: skip
+    for part in ("gunicorn", "rebuild_track_overview", "run_alerts", "simulate_boat",
+                 "edge_client.sim", "edge_client run", "simulate_glider",
+                 "run_wg_bridge"):  # fmt: skip
         assert part in running, running
     assert demo.signal(signal.SIGTERM) == 143  # the script only, as `kill PID` does
     assert gone_within(demo, 5) == []

@@ -14,6 +14,7 @@ from django.core.management.base import CommandParser
 from django.db import transaction
 from django.utils import timezone
 
+from alerts.models import AlertRule
 from audit.context import AuditedCommand
 from commands.models import Source
 from commands.services import command_ack, command_claim_open, command_enqueue
@@ -72,6 +73,15 @@ CHANNELS = [
     ("leak2", "Leak sensor 2", "", 0, 1),
 ]
 HISTORY = dt.timedelta(hours=3)
+# The alerts run_alerts watches in the demo (docs/operating.md): name, fields.
+ALERT_RULES = [
+    ("Silent for 3 periods", {"kind": "overdue", "threshold": 3}),
+    # The simulated Rover's battery sags from 12.6 V as it runs: the demo shows one open.
+    ("Boat battery low", {"kind": "battery", "threshold": 11.5, "vessel_kind": "mavlink"}),
+    # The glider's hull humidity rising means a leak; the channel's 0-100 % is too wide.
+    ("Glider hull humidity", {"kind": "reading", "reading": "humidity_pct", "maximum": 70,
+                              "vessel_kind": "wave_glider"}),
+]  # fmt: skip
 
 
 class Command(AuditedCommand):  # its keys, numbers and commands audited as the shell user
@@ -102,6 +112,7 @@ class Command(AuditedCommand):  # its keys, numbers and commands audited as the 
                 self.history(vessel, start, period)
             keys[slug] = vessel_key_issue(vessel=vessel, label="demo", created_by="seed_demo")[1]
         self.demo_commands(user)
+        self.alert_rules()
         authorised_number_authorise(
             number=DEMO_NUMBER,
             vessels=[Vessel.objects.get(slug="glider")],
@@ -174,3 +185,10 @@ class Command(AuditedCommand):  # its keys, numbers and commands audited as the 
                 for lat, lon in patrol_route(-32.0200, 115.7000, radius_m=300, points=5)
             ],
         )
+
+    def alert_rules(self) -> None:
+        for name, fields in ALERT_RULES:
+            if not AlertRule.objects.filter(name=name).exists():
+                rule = AlertRule(name=name, **fields)
+                rule.full_clean()
+                rule.save()
