@@ -83,20 +83,23 @@ def test_a_failing_pass_is_logged_and_the_loop_carries_on(
 
 
 @pytest.mark.django_db(transaction=True)
-def test_the_loop_sends_what_is_due_when_there_is_a_sender(
-    vessel_a: Vessel, make_rule, monkeypatch: pytest.MonkeyPatch
+def test_one_pass_opens_the_alert_and_sends_its_notification(
+    vessel_a: Vessel, make_rule, mailoutbox
 ) -> None:
-    from alerts.services import notifications
+    from alerts.services.notifications import notification_channel_create
 
-    calls = []
-    monkeypatch.setattr(
-        notifications,
-        "notifications_send_due",
-        lambda *, now, worker: calls.append(worker) or 0,
-        raising=False,
+    email, _ = notification_channel_create(
+        name="duty", kind="email", target="duty@example.org", by="alice"
+    )
+    rule = make_rule(kind="overdue")
+    rule.channels.add(email)
+    Vessel.objects.filter(pk=vessel_a.pk).update(
+        last_seen_at=timezone.now() - dt.timedelta(hours=1)
     )
     call_command("run_alerts", "--once", stdout=StringIO())
-    assert calls and calls[0].endswith(f":{os.getpid()}")
+    assert Alert.objects.get(rule=rule).state == "open"
+    assert [m.to for m in mailoutbox] == [["duty@example.org"]]
+    assert "spab" in mailoutbox[0].subject + mailoutbox[0].body
 
 
 @pytest.mark.slow

@@ -33,7 +33,8 @@ from django.db import close_old_connections, connection
 from django.utils import timezone
 
 from alerts.evaluator import Evaluator
-from alerts.services import notifications
+from alerts.services.notifications import notifications_send_due
+from telemetry.retention import fixes_prune
 
 logger = logging.getLogger(__name__)
 
@@ -117,13 +118,8 @@ class Command(BaseCommand):
         return self.send_due() and ok
 
     def send_due(self) -> bool:
-        # The sender lives in the notifications module (its own branch until merged): call it
-        # when it is there.
-        send = getattr(notifications, "notifications_send_due", None)
-        if send is None:
-            return True
         try:
-            send(now=timezone.now(), worker=self.worker)
+            notifications_send_due(now=timezone.now(), worker=self.worker)
         except Exception:
             logger.exception("run_alerts: sending notifications failed; trying again")
             return False
@@ -144,12 +140,6 @@ class Command(BaseCommand):
         self.pruner.start()
 
     def _prune(self) -> None:
-        try:
-            # telemetry's retention (its own branch until merged: then a plain import on top).
-            from telemetry.retention import fixes_prune
-        except ImportError:
-            logger.warning("run_alerts: ALERTS_PRUNE_EVERY_S is set but there is no prune")
-            return
         try:
             # Thinning stops between two reads once the loop is asked to stop.
             fixes_prune(now=timezone.now(), stop=lambda: self.stopping)
