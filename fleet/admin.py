@@ -7,8 +7,10 @@ action; the apps' own admins stay within their app and never import the apps abo
 from __future__ import annotations
 
 import json
+import math
 from typing import Any
 
+from django.conf import settings
 from django.contrib import admin, messages
 from django.core.exceptions import PermissionDenied
 from django.db.models import Count, Q, QuerySet
@@ -21,6 +23,7 @@ from django.utils.html import format_html, format_html_join
 
 from alerts.admin import state_badge
 from alerts.models import ACTIVE_STATES, Alert
+from alerts.selectors import vessel_endurance_hours
 from commands.admin import CommandAdmin, status_badge
 from commands.errors import CommandError
 from commands.models import Command, Source
@@ -39,12 +42,13 @@ RECENT_ROWS = 15
 
 class FleetVesselAdmin(VesselAdmin):
     readonly_fields = [
-        *VesselAdmin.readonly_fields, "open_alerts", "recent_fixes", "recent_commands",
+        *VesselAdmin.readonly_fields, "open_alerts", "battery_endurance", "recent_fixes",
+        "recent_commands",
     ]  # fmt: skip
     list_display = [*VesselAdmin.list_display[:4], "alerts_shown", *VesselAdmin.list_display[4:]]
     fieldsets = [
         VesselAdmin.fieldsets[0],
-        ("Open alerts", {"fields": ["open_alerts"]}),
+        ("Open alerts", {"fields": ["open_alerts", "battery_endurance"]}),
         *VesselAdmin.fieldsets[1:],
         ("Recent activity", {"fields": ["recent_fixes", "recent_commands"]}),
     ]
@@ -94,6 +98,18 @@ class FleetVesselAdmin(VesselAdmin):
             rows,
             link,
         )
+
+    @admin.display(description="battery endurance")
+    def battery_endurance(self, vessel: Vessel) -> str:
+        """As the endurance rules judge it (docs/alerts.md#battery-endurance)."""
+        if vessel.pk is None:
+            return "–"
+        hours = vessel_endurance_hours(vessel=vessel)
+        if hours is None:
+            return "not enough history yet (it needs two days of reports)"
+        if math.isinf(hours):
+            return "the battery is not falling, day over day"
+        return f"{hours:.0f} h to empty ({settings.ALERTS_BATTERY_EMPTY_V:g} V), day over day"
 
     class Media:
         css = {"all": ["commands/status.css"]}  # the recent commands' status badges

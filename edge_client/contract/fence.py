@@ -1,4 +1,4 @@
-"""Fences, one shape and one geometry for the shore and the autopilot (docs/operating.md#fences).
+"""Fences, one shape and one geometry for the shore and the autopilot (docs/alerts.md#fences).
 
 A fence is an area a boat must stay inside (inclusion) or outside (exclusion): a polygon or a
 circle. The shore watches it (the alerts' fence rules call :func:`contains` and

@@ -12,6 +12,7 @@ from django.utils import timezone
 
 from alerts.evaluator import Evaluator
 from alerts.models import Alert, AlertRule, Notification
+from alerts.selectors import vessel_endurance_hours
 from audit.models import AuditEntry
 from commands.services import command_ack, command_claim_open, command_enqueue, command_expire_due
 from telemetry.models import SensorChannel
@@ -321,8 +322,6 @@ def test_acknowledging_records_who_and_when_and_audits(
 
 
 def test_the_vessel_panels_endurance_is_the_rules(clock: Any, vessel_a: Vessel, glider) -> None:
-    from alerts.selectors import vessel_endurance_hours
-
     drain(vessel_a, 50, start_v=12.5, per_hour=0.02)
     drain(glider, 50, start_v=12.5, per_hour=0.0)
     assert vessel_endurance_hours(vessel=vessel_a, empty_v=11.0) == pytest.approx(29.6, abs=0.2)
@@ -383,3 +382,12 @@ def test_a_pass_that_fails_before_judging_leaves_its_fixes_to_the_next(
     clock.shift(10)
     evaluator.run_pass()
     assert states(rule) == [("spab", "open")]
+
+
+def test_the_vessel_page_shows_the_endurance(clock: Any, vessel_a: Vessel, admin_ui) -> None:
+    page = admin_ui.get(f"/admin/vessels/vessel/{vessel_a.pk}/change/").content.decode()
+    assert "not enough history yet" in page
+    drain(vessel_a, 50, start_v=12.5, per_hour=0.02)
+    page = admin_ui.get(f"/admin/vessels/vessel/{vessel_a.pk}/change/").content.decode()
+    hours = vessel_endurance_hours(vessel=vessel_a)
+    assert f"{hours:.0f} h to empty (10.5 V), day over day" in page
