@@ -7,7 +7,7 @@ from __future__ import annotations
 import datetime as dt
 
 import pytest
-from django.core.management import call_command, get_commands
+from django.core.management import call_command
 from django.utils import timezone
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
@@ -29,10 +29,6 @@ from tests.edge_client.helpers import wait_until
 from vessels.models import Fence, Vessel
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
-
-# The evaluator (`manage.py run_alerts --once`, issue 19 §3) opens the alert; a branch without
-# it cannot run the whole story.
-HAS_EVALUATOR = "run_alerts" in get_commands()
 
 
 @pytest.fixture(autouse=True)
@@ -129,7 +125,6 @@ def acknowledge_from_the_panel(browser, alert: Alert) -> None:
     shot(browser, "fence-4-acknowledged")
 
 
-@pytest.mark.skipif(not HAS_EVALUATOR, reason="needs the evaluator (manage.py run_alerts)")
 def test_draw_a_fence_the_boat_leaves_it_an_alert_opens_and_is_acknowledged(
     browser,
     live_server,
@@ -174,8 +169,8 @@ def test_draw_a_fence_the_boat_leaves_it_an_alert_opens_and_is_acknowledged(
 def test_a_drawn_fence_shows_on_the_fleet_map_with_its_vessels_open_alert(
     browser, live_server, watch_operator, vessel_a: Vessel
 ) -> None:
-    """The map's part of the story without the evaluator: an alert opened (as the evaluator
-    opens one) on a vessel inside a fence drawn in the browser is badged, shown and
+    """The map's part of the story alone, with no boat to wait for: an alert opened (as the
+    evaluator opens one) on a vessel inside a fence drawn in the browser is badged, shown and
     acknowledged."""
     from telemetry.services import fix_ingest
 
