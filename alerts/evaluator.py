@@ -54,7 +54,7 @@ from alerts.models import ACTIVE_STATES, Alert, AlertRule, RuleKind
 from alerts.services.alerts import alert_open, alert_resolve
 from commands.models import Command
 from edge_client.contract.backoff import UNTIL_THE_CAP, after_failures
-from edge_client.contract.fence import contains, wire_fence
+from edge_client.contract.fence import containment, wire_fence
 from edge_client.contract.status import Status
 from telemetry.models import Fix, SensorChannel, TrackBucket
 from vessels.models import Vessel
@@ -127,6 +127,8 @@ class Snapshot:
     fixes: dict[int, list[tuple[Any, ...]]]
     channels: dict[str, tuple[float | None, float | None]]
     commands: list[dict[str, Any]]
+    # Fence id -> (lat, lon) -> inside it? (judge_fence: shared by the rules on one fence).
+    inside: dict[int, dict[tuple[float, float], bool]] = field(default_factory=dict)
 
     def scope(self, rule: AlertRule) -> list[int]:
         if rule.vessel_id is not None:
@@ -216,15 +218,19 @@ class Evaluator:
     def new_fixes(self) -> dict[int, list[tuple[Any, ...]]]:
         """Fixes received since the last pass (less the overlap), not judged yet, per vessel in
         time order. Uses the index on received_at (telemetry migration 0003)."""
-        rows = (
-            Fix.objects.filter(received_at__gte=self.fix_cursor - self.overlap)
-            .order_by("recorded_at")
-            .values_list(*FIX_FIELDS)
-        )
+        window = Fix.objects.filter(received_at__gte=self.fix_cursor - self.overlap)
+        # Ids first, then the rows of the new ones only: the window holds ALERTS_FIX_OVERLAP_S
+        # of the fleet's fixes, most of them judged already, and converting their dates and
+        # readings was most of a pass under heavy ingest (bench.alerts). A fix committed
+        # between the two reads is in the next pass's window.
+        fresh = [pk for pk in window.values_list("id", flat=True) if pk not in self.seen]
+        rows: list[tuple[Any, ...]] = []
+        for chunk in _chunks(fresh, 500):  # SQLite's bound-parameter limit
+            rows.extend(Fix.objects.filter(pk__in=chunk).values_list(*FIX_FIELDS))
+        rows.sort(key=lambda row: row[2])  # recorded_at: each vessel's fixes in time order
         fixes: dict[int, list[tuple[Any, ...]]] = defaultdict(list)
         for row in rows:
-            if row[0] not in self.seen:
-                fixes[row[1]].append(row)
+            fixes[row[1]].append(row)
         return fixes
 
     def ended_commands(self) -> list[dict[str, Any]]:
@@ -300,8 +306,15 @@ class Evaluator:
         wire = wire_fence(id=fence.pk, name=fence.name, inclusion=fence.inclusion,
                           geometry=fence.geometry, radius_m=fence.radius_m)  # fmt: skip
 
+        # Rules on one fence share its answers within a pass (probe points included).
+        known = snap.inside.setdefault(fence.pk, {})
+        test = containment(wire)
+
         def inside(lat: float, lon: float) -> bool:
-            return contains(wire, lat, lon)
+            answer = known.get((lat, lon))
+            if answer is None:
+                answer = known[(lat, lon)] = test(lat, lon)
+            return answer
 
         side = "outside" if fence.inclusion else "inside"
         detail = f"{side} {'inclusion' if fence.inclusion else 'exclusion'} fence {fence.name}"

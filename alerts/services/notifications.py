@@ -67,9 +67,12 @@ def notifications_queue(*, alert: Alert, event: str, now: dt.datetime | None = N
     if event not in texts.EVENTS:
         raise ValueError(f"{event!r} is not one of {', '.join(texts.EVENTS)}")
     now = now or timezone.now()
+    # .all() and a filter in Python, not .filter(active=True): the evaluator prefetches each
+    # rule's channels, and a query per alert is most of a busy pass's writes (bench.alerts).
     rows = [
         Notification(alert=alert, channel=channel, event=event, created_at=now, due_at=now)
-        for channel in alert.rule.channels.filter(active=True)
+        for channel in alert.rule.channels.all()
+        if channel.active
     ]
     for row in rows:
         row.full_clean(exclude=["alert", "channel", "summarised_in"])  # FKs: just fetched

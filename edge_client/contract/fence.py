@@ -29,7 +29,7 @@ that crosses it when the set is for an autopilot. Pure and stdlib-only.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from edge_client.contract.fix import RANGES
@@ -380,6 +380,35 @@ def contains(fence: Mapping[str, Any], lat: float, lon: float) -> bool:
         c = fence["circle"]
         return distance_m(c["lat"], c["lon"], lat, lon) <= c["radius_m"]
     return _in_polygon(unwrapped(fence["polygon"]), lat, lon)
+
+
+def containment(fence: Mapping[str, Any]) -> Callable[[float, float], bool]:
+    """:func:`contains` for one fence, asked about many points: the same answers, with the
+    polygon unwrapped once and points beyond its latitudes (or a circle's) answered at once.
+    The alerts evaluator asks it about every fix of every vessel a fence rule watches."""
+    if "circle" in fence and fence["circle"] is not None:
+        c = fence["circle"]
+        clat, clon, radius = c["lat"], c["lon"], c["radius_m"]
+        # A great circle is never shorter than its north-south leg, R * |dlat| (radians); the
+        # margin keeps the shortcut clear of the haversine's rounding at the edge.
+        reach = (radius * (1 + 1e-9) + 1e-6) / (math.radians(1.0) * EARTH_RADIUS_M)
+
+        def in_circle(lat: float, lon: float) -> bool:
+            if abs(lat - clat) > reach:
+                return False
+            return distance_m(clat, clon, lat, lon) <= radius
+
+        return in_circle
+    points = unwrapped(fence["polygon"])
+    south, north = min(p[0] for p in points), max(p[0] for p in points)
+
+    def in_polygon(lat: float, lon: float) -> bool:
+        # Outside its latitudes no edge straddles the point's ray: ray casting says outside.
+        if lat < south or lat > north:
+            return False
+        return _in_polygon(points, lat, lon)
+
+    return in_polygon
 
 
 def breached(fences: Sequence[Mapping[str, Any]], lat: float, lon: float) -> bool:
