@@ -276,27 +276,53 @@ class Evaluator:
     def judge_battery(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
         if rule.threshold is None:
             return
+        threshold, clear = rule.threshold, R.battery_clear_v(rule.threshold, rule.maximum)
         for vessel_id in snap.scope(rule):
-            for fix in snap.fixes.get(vessel_id, ()):
+            fixes = snap.fixes.get(vessel_id)
+            if not fixes:
+                continue
+            active = ep.is_active(vessel_id)
+            for fix in fixes:
                 volts = fix[6]
+                # Past the fixes that cannot change the episode without asking the rule (most:
+                # battery() holds only below threshold, clears only above clear; the column
+                # holds floats or None; NaN and infinities take the long way to KEEP).
+                if volts is None or (volts <= clear if active else volts >= threshold):
+                    continue
                 verdict = R.battery(volts, rule.threshold, rule.maximum)
-                if ep.changes(vessel_id, verdict):  # most fixes change nothing: say nothing
+                if ep.changes(vessel_id, verdict):
                     detail = f"battery {volts} V, below {rule.threshold} V"
                     ep.observe(vessel_id, verdict, value=volts, detail=detail, fix_id=fix[0])
+                    active = ep.is_active(vessel_id)
 
     def judge_reading(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
         low, high = snap.channels.get(rule.reading, (None, None))
         limits = R.reading_limits(rule.minimum, rule.maximum, low, high)
         if not limits.usable:
             return
+        key, low, high = rule.reading, limits.low, limits.high
         for vessel_id in snap.scope(rule):
-            for fix in snap.fixes.get(vessel_id, ()):
-                value = (fix[7] or {}).get(rule.reading)
+            fixes = snap.fixes.get(vessel_id)
+            if not fixes:
+                continue
+            active = ep.is_active(vessel_id)
+            for fix in fixes:
+                value = (fix[7] or {}).get(key)
+                # Past the values that cannot open an episode without asking the rule (most:
+                # a plain number within the limits; anything else takes the long way).
+                if value is None or (
+                    not active
+                    and type(value) in (int, float)
+                    and (low is None or value >= low)
+                    and (high is None or value <= high)
+                ):
+                    continue
                 verdict = R.reading(value, limits)
                 if ep.changes(vessel_id, verdict):
                     detail = f"{rule.reading} {value}, outside {limits.low} … {limits.high}"
                     ep.observe(vessel_id, verdict, value=_num(value), detail=detail,
                                fix_id=fix[0])  # fmt: skip
+                    active = ep.is_active(vessel_id)
 
     def judge_fence(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
         fence = rule.fence
@@ -323,6 +349,8 @@ class Evaluator:
                 continue
             for fix in snap.fixes.get(vessel_id, ()):
                 active = ep.is_active(vessel_id)
+                if not active and inside(fix[4], fix[5]) == fence.inclusion:
+                    continue  # allowed, and nothing to clear: fence() would say KEEP
                 verdict = R.fence(fix[4], fix[5], fence.inclusion, inside, need_clear=active)
                 if ep.changes(vessel_id, verdict):
                     ep.observe(vessel_id, verdict, fix_id=fix[0],
