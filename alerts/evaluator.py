@@ -223,10 +223,14 @@ class Evaluator:
         # of the fleet's fixes, most of them judged already, and converting their dates and
         # readings was most of a pass under heavy ingest (bench.alerts). A fix committed
         # between the two reads is in the next pass's window.
-        fresh = [pk for pk in window.values_list("id", flat=True) if pk not in self.seen]
+        ids = list(window.values_list("id", flat=True))
+        fresh = [pk for pk in ids if pk not in self.seen]
         rows: list[tuple[Any, ...]] = []
-        for chunk in _chunks(fresh, 500):  # SQLite's bound-parameter limit
-            rows.extend(Fix.objects.filter(pk__in=chunk).values_list(*FIX_FIELDS))
+        if len(fresh) * 2 > len(ids):  # mostly new (a first pass): one read of the window
+            rows = [row for row in window.values_list(*FIX_FIELDS) if row[0] not in self.seen]
+        else:
+            for chunk in _chunks(fresh, 500):  # SQLite's bound-parameter limit
+                rows.extend(Fix.objects.filter(pk__in=chunk).values_list(*FIX_FIELDS))
         rows.sort(key=lambda row: row[2])  # recorded_at: each vessel's fixes in time order
         fixes: dict[int, list[tuple[Any, ...]]] = defaultdict(list)
         for row in rows:
