@@ -102,7 +102,9 @@ class Command(LoopCommand):
 
     def send_due(self) -> bool:
         try:
-            notifications_send_due(now=timezone.now(), worker=self.worker)
+            notifications_send_due(
+                now=timezone.now(), worker=self.worker, stop=lambda: self.stopping
+            )
         except Exception:
             logger.exception("run_alerts: sending notifications failed; trying again")
             return False
