@@ -146,6 +146,7 @@ def test_a_stop_hands_back_what_was_not_sent_yet(
     for slug in ("spab", "spab-2", "glider"):
         notifications_queue(alert=make_alert(rule, make_vessel(slug)), event="alert.opened",
                             now=BASE)  # fmt: skip
+
     def stop() -> bool:  # told to stop once the first went out
         return len(receiver.received) >= 1
 
