@@ -33,18 +33,18 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import http.server
-import json
 import os
 import random
-import shutil
 import statistics
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
 from typing import Any
+
+from bench.child import report
+from bench.child import run_child as run_database_child
 
 ROOT = Path(__file__).resolve().parent.parent
 VESSELS, GLIDERS = 1000, 100
@@ -416,34 +416,15 @@ def child(opts: argparse.Namespace) -> None:
     results["ingest"] = ingest_rates(built, opts.ingest_s, env)
     if opts.latency:
         results["latency"] = fence_latency(built, env, opts.latency)
-    print("@@RESULT " + json.dumps(results), flush=True)
+    report(results)
 
 
 def run_child(db: str, opts: argparse.Namespace) -> dict[str, Any]:
-    workdir = Path(tempfile.mkdtemp(prefix=f"shoreside-alerts-{db}-"))
-    env = {k: v for k, v in os.environ.items() if k != "DATABASE_URL"}
-    env.update(DJANGO_SETTINGS_MODULE="bench.settings", SHORESIDE_DATA_DIR=str(workdir),
-               DEBUG="0", PRODUCTION="0", LOG_LEVEL="WARNING",
-               EMAIL_BACKEND="django.core.mail.backends.locmem.EmailBackend")  # fmt: skip
-    name = f"shoreside_alerts_{os.getpid()}"
-    pg = ["-h", "127.0.0.1", "-U", "postgres"]
-    if db == "postgres":
-        url = os.environ.get("DATABASE_URL", "postgres://postgres@127.0.0.1:5432/x")
-        host = url.split("@", 1)[1].split("/", 1)[0]
-        subprocess.run(["createdb", *pg, name], check=True, capture_output=True)
-        env["DATABASE_URL"] = f"postgres://postgres@{host}/{name}"
-    argv = [sys.executable, "-m", "bench.alerts", "--_child", "--ingest-s", str(opts.ingest_s),
-            "--latency", str(opts.latency)]  # fmt: skip
-    try:
-        out = subprocess.run(argv, env=env, cwd=ROOT, capture_output=True, text=True, check=False)
-    finally:
-        shutil.rmtree(workdir, ignore_errors=True)
-        if db == "postgres":
-            subprocess.run(["dropdb", *pg, "--if-exists", "--force", name], capture_output=True)
-    for line in out.stdout.splitlines():
-        if line.startswith("@@RESULT "):
-            return json.loads(line.removeprefix("@@RESULT "))
-    sys.exit(f"bench.alerts ({db}) failed:\n{out.stdout[-3000:]}\n{out.stderr[-5000:]}")
+    args = ["--ingest-s", str(opts.ingest_s), "--latency", str(opts.latency)]
+    # Notifications by e-mail stay in memory: the bench measures the pass, not an SMTP server.
+    return run_database_child(
+        "bench.alerts", db, args, {"EMAIL_BACKEND": "django.core.mail.backends.locmem.EmailBackend"}
+    )
 
 
 def print_table(r: dict[str, Any]) -> None:

@@ -38,12 +38,13 @@ import resource
 import shutil
 import statistics
 import subprocess
-import sys
-import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
+
+from bench.child import report
+from bench.child import run_child as run_database_child
 
 ROOT = Path(__file__).resolve().parents[1]
 DAYS = 30
@@ -406,43 +407,15 @@ def child(opts: argparse.Namespace) -> None:
     results["ingest"] = ingest_cost(vessel, start)
     if not opts.skip_naive:
         results["naive"] = naive_geojson(vessel, start, end)
-    print("@@RESULT " + json.dumps(results), flush=True)
+    report(results)
 
 
 # --- the parent: a child per database, then the table ---
 
 
 def run_child(db: str, opts: argparse.Namespace) -> dict[str, Any]:
-    workdir = Path(tempfile.mkdtemp(prefix=f"shoreside-maps-{db}-"))
-    env = {k: v for k, v in os.environ.items() if k not in {"DATABASE_URL"}}
-    env.update(
-        DJANGO_SETTINGS_MODULE="bench.settings",
-        SHORESIDE_DATA_DIR=str(workdir),
-        ALLOWED_HOSTS="testserver",
-        DEBUG="0",
-        PRODUCTION="0",
-        LOG_LEVEL="WARNING",
-    )
-    name = f"shoreside_maps_{os.getpid()}"
-    pg = ["-h", "127.0.0.1", "-U", "postgres"]
-    if db == "postgres":
-        url = os.environ.get("DATABASE_URL", "postgres://postgres@127.0.0.1:5432/x")
-        host = url.split("@", 1)[1].split("/", 1)[0]
-        subprocess.run(["createdb", *pg, name], check=True, capture_output=True)
-        env["DATABASE_URL"] = f"postgres://postgres@{host}/{name}"
-    argv = [sys.executable, "-m", "bench.maps", "--_child", "--fixes", str(opts.fixes)]
-    if opts.skip_naive:
-        argv.append("--skip-naive")
-    try:
-        out = subprocess.run(argv, env=env, cwd=ROOT, capture_output=True, text=True, check=False)
-    finally:
-        shutil.rmtree(workdir, ignore_errors=True)
-        if db == "postgres":
-            subprocess.run(["dropdb", *pg, "--if-exists", "--force", name], capture_output=True)
-    for line in out.stdout.splitlines():
-        if line.startswith("@@RESULT "):
-            return json.loads(line.removeprefix("@@RESULT "))
-    sys.exit(f"bench.maps ({db}) failed:\n{out.stdout[-3000:]}\n{out.stderr[-5000:]}")
+    args = ["--fixes", str(opts.fixes), *(["--skip-naive"] if opts.skip_naive else [])]
+    return run_database_child("bench.maps", db, args)
 
 
 def print_table(r: dict[str, Any]) -> None:

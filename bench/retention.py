@@ -30,16 +30,17 @@ import argparse
 import datetime as dt
 import json
 import os
-import shutil
 import statistics
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from bench.child import report
+from bench.child import run_child as run_database_child
 
 ROOT = Path(__file__).resolve().parents[1]
 TICK_S = 0.01  # the ingest loop posts a fix every 10 ms (as 100 boats at 1 Hz would)
@@ -201,41 +202,14 @@ def child(opts: argparse.Namespace) -> None:
     results["marks"] = TrackDirty.objects.filter(vessel=vessel, start__lt=cutoff).count()
     baseline_s = min(results["prune"]["seconds"], BASELINE_CAP_S)
     _, results["baseline"] = beside_ingest(vessel.pk, lambda: time.sleep(baseline_s))
-    print("@@RESULT " + json.dumps(results), flush=True)
+    report(results)
 
 
 # --- the parent: a child per database, then the table ---
 
 
 def run_child(db: str, opts: argparse.Namespace) -> dict[str, Any]:
-    workdir = Path(tempfile.mkdtemp(prefix=f"shoreside-retention-{db}-"))
-    env = {k: v for k, v in os.environ.items() if k not in {"DATABASE_URL"}}
-    env.update(
-        DJANGO_SETTINGS_MODULE="bench.settings",
-        SHORESIDE_DATA_DIR=str(workdir),
-        ALLOWED_HOSTS="testserver",
-        DEBUG="0",
-        PRODUCTION="0",
-        LOG_LEVEL="WARNING",
-    )
-    name = f"shoreside_retention_{os.getpid()}"
-    pg = ["-h", "127.0.0.1", "-U", "postgres"]
-    if db == "postgres":
-        url = os.environ.get("DATABASE_URL", "postgres://postgres@127.0.0.1:5432/x")
-        host = url.split("@", 1)[1].split("/", 1)[0]
-        subprocess.run(["createdb", *pg, name], check=True, capture_output=True)
-        env["DATABASE_URL"] = f"postgres://postgres@{host}/{name}"
-    argv = [sys.executable, "-m", "bench.retention", "--_child", "--fixes", str(opts.fixes)]
-    try:
-        out = subprocess.run(argv, env=env, cwd=ROOT, capture_output=True, text=True, check=False)
-    finally:
-        shutil.rmtree(workdir, ignore_errors=True)
-        if db == "postgres":
-            subprocess.run(["dropdb", *pg, "--if-exists", "--force", name], capture_output=True)
-    for line in out.stdout.splitlines():
-        if line.startswith("@@RESULT "):
-            return json.loads(line.removeprefix("@@RESULT "))
-    sys.exit(f"bench.retention ({db}) failed:\n{out.stdout[-3000:]}\n{out.stderr[-5000:]}")
+    return run_database_child("bench.retention", db, ["--fixes", str(opts.fixes)])
 
 
 def print_table(r: dict[str, Any]) -> None:

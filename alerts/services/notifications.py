@@ -13,7 +13,7 @@ from __future__ import annotations
 import datetime as dt
 import logging
 import secrets
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from itertools import groupby
 from typing import Any
 
@@ -84,7 +84,8 @@ def notifications_queue(*, alert: Alert, event: str, now: dt.datetime | None = N
 
 
 def notifications_send_due(*, now: dt.datetime | None = None, worker: str,
-                           limit: int = SEND_LIMIT) -> int:  # fmt: skip
+                           limit: int = SEND_LIMIT,
+                           stop: Callable[[], bool] | None = None) -> int:  # fmt: skip
     """Claim the notifications due at ``now`` and send them; return how many were delivered
     (each one a summary carried counts). Call it outside any transaction.
 
@@ -97,6 +98,9 @@ def notifications_send_due(*, now: dt.datetime | None = None, worker: str,
        on its token: sent; or on a temporary failure pending again at a backoff (failed after
        ALERTS_NOTIFY_MAX_ATTEMPTS); or failed on a permanent one. A failing channel is logged
        and the pass goes on with the next.
+    4. Once ``stop()`` says so (run_alerts told to stop), the rows not sent yet are handed
+       back, pending and due as they were, for the next sender: a channel that hangs (a dead
+       host, up to ALERTS_HTTP_TIMEOUT_S a try) never holds a stop for the whole batch.
     """
     now = now or timezone.now()
     token = f"{worker[:50]}/{secrets.token_hex(4)}"
@@ -107,11 +111,21 @@ def notifications_send_due(*, now: dt.datetime | None = None, worker: str,
     delivered = 0
     try:
         for rows in _batches(claimed):
+            if stop is not None and stop():
+                _hand_back(token)
+                break
             delivered += _deliver(rows, transports, token=token, now=now)
     finally:
         for transport in transports.values():
             transport.close()
     return delivered
+
+
+def _hand_back(token: str) -> None:
+    """Rows this pass claimed but did not send: pending again, their attempt not counted."""
+    Notification.objects.filter(state=SENDING, claimed_by=token).update(
+        state=PENDING, claimed_by="", claimed_at=None, attempts=F("attempts") - 1
+    )
 
 
 def _claim(*, now: dt.datetime, token: str, limit: int) -> list[Notification]:

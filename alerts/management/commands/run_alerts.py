@@ -20,38 +20,28 @@ from __future__ import annotations
 import datetime as dt
 import logging
 import os
-import signal
 import socket
 import threading
-import time
-from collections.abc import Callable
 from typing import Any
 
 from django.conf import settings
-from django.core.management.base import BaseCommand, CommandParser
+from django.core.management.base import CommandParser
 from django.db import close_old_connections, connection
 from django.utils import timezone
 
 from alerts.evaluator import Evaluator
 from alerts.services.notifications import notifications_send_due
 from telemetry.retention import fixes_prune
+from vessels.loops import LoopCommand
 
 logger = logging.getLogger(__name__)
 
-# How often the idle wait between passes looks at the stop flag (seconds).
-STOP_CHECK_S = 0.1
 
-
-class Command(BaseCommand):
+class Command(LoopCommand):
     help = __doc__.splitlines()[0]
-
-    # The idle wait's sleep and the clock; tests may replace them on the instance.
-    sleep: Callable[[float], None] = staticmethod(time.sleep)
-    clock: Callable[[], float] = staticmethod(time.monotonic)
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        self.stopping = False
         self.worker = f"{socket.gethostname()}:{os.getpid()}"
         self.evaluator: Evaluator | None = None
         self.pruner: threading.Thread | None = None
@@ -68,8 +58,7 @@ class Command(BaseCommand):
 
     def handle(self, *args: Any, **opts: Any) -> None:
         period = opts["period"] or settings.ALERTS_PERIOD_S
-        previous = {s: signal.signal(s, self._stop) for s in (signal.SIGTERM, signal.SIGINT)}
-        try:
+        with self.stopped_by_signals():
             if opts["once"]:
                 # One pass from cron: judge the fixes of the last period (and the overlap).
                 self.evaluator = Evaluator(since=timezone.now() - dt.timedelta(seconds=period))
@@ -81,12 +70,6 @@ class Command(BaseCommand):
             self.stdout.flush()
             self.run_loop(period=period)
             self.stdout.write("run_alerts: stopped")
-        finally:
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
-
-    def _stop(self, signum: int, frame: Any) -> None:
-        self.stopping = True
 
     def run_loop(self, *, period: float) -> None:
         """Pass, wait out the rest of the period, repeat until the stop flag is set."""
@@ -119,7 +102,9 @@ class Command(BaseCommand):
 
     def send_due(self) -> bool:
         try:
-            notifications_send_due(now=timezone.now(), worker=self.worker)
+            notifications_send_due(
+                now=timezone.now(), worker=self.worker, stop=lambda: self.stopping
+            )
         except Exception:
             logger.exception("run_alerts: sending notifications failed; trying again")
             return False
@@ -147,11 +132,3 @@ class Command(BaseCommand):
             logger.exception("run_alerts: pruning fixes failed; trying again later")
         finally:
             connection.close()  # this thread's own connection
-
-    def wait(self, seconds: float) -> None:
-        """Sleep ``seconds`` in short steps, returning early once the stop flag is set."""
-        remaining = seconds
-        while remaining > 0 and not self.stopping:
-            step = min(STOP_CHECK_S, remaining)
-            self.sleep(step)
-            remaining -= step

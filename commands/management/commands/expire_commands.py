@@ -9,46 +9,30 @@ systemd would only restart into the same error.
 from __future__ import annotations
 
 import logging
-import signal
-import time
-from collections.abc import Callable
 from typing import Any
 
-from django.core.management.base import BaseCommand, CommandParser
+from django.core.management.base import CommandParser
 from django.db import close_old_connections
 
 from commands.services import command_expire_due
+from vessels.loops import LoopCommand
 
 logger = logging.getLogger(__name__)
 
-# How often the idle wait between passes looks at the stop flag (seconds).
-STOP_CHECK_S = 0.2
 
-
-class Command(BaseCommand):
+class Command(LoopCommand):
     help = "Expire queued commands past their expires_at (once, or in a loop with --loop)."
-
-    # The idle wait's sleep; tests replace it on the instance to run the loop without waiting.
-    sleep: Callable[[float], None] = staticmethod(time.sleep)
 
     def add_arguments(self, parser: CommandParser) -> None:
         parser.add_argument("--loop", action="store_true")
         parser.add_argument("--interval", type=float, default=60.0)
 
     def handle(self, *args: Any, **opts: Any) -> None:
-        self.stopping = False
-        previous = {sig: signal.signal(sig, self._stop) for sig in (signal.SIGTERM, signal.SIGINT)}
-        try:
+        with self.stopped_by_signals():
             if opts["loop"]:
                 self.run_loop(interval=opts["interval"])
             else:
                 self.do_one_pass()  # cron: a failure fails the run, so cron reports it
-        finally:
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
-
-    def _stop(self, signum: int, frame: Any) -> None:
-        self.stopping = True
 
     def run_loop(self, *, interval: float) -> None:
         """Pass, wait ``interval`` seconds, repeat until the stop flag is set."""
@@ -74,11 +58,3 @@ class Command(BaseCommand):
         if count:
             self.stdout.write(f"expired {count} command(s)")
         return count
-
-    def wait(self, seconds: float) -> None:
-        """Sleep ``seconds`` in short steps, returning early once the stop flag is set."""
-        remaining = seconds
-        while remaining > 0 and not self.stopping:
-            step = min(STOP_CHECK_S, remaining)
-            self.sleep(step)
-            remaining -= step

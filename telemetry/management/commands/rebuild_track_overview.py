@@ -15,12 +15,10 @@ failing every pass; the other vessels carry on.
 from __future__ import annotations
 
 import logging
-import signal
 import time
-from collections.abc import Callable
 from typing import Any
 
-from django.core.management.base import BaseCommand, CommandError, CommandParser
+from django.core.management.base import CommandError, CommandParser
 from django.db import close_old_connections
 
 from edge_client.contract.backoff import UNTIL_THE_CAP, after_failures
@@ -30,12 +28,11 @@ from telemetry.services import (
     track_overview_rebuild,
     track_overview_refresh,
 )
+from vessels.loops import LoopCommand
 from vessels.models import Vessel
 
 logger = logging.getLogger(__name__)
 
-# How often the idle wait between passes looks at the stop flag (seconds).
-STOP_CHECK_S = 0.2
 # A vessel whose rebuild failed is retried after this long, doubling per failure, up to the max.
 RETRY_FIRST_S = 10.0
 RETRY_MAX_S = 3600.0
@@ -49,16 +46,11 @@ def retry_delay(failures: int) -> float:
     return after_failures(RETRY_FIRST_S, failures - 1, cap=RETRY_MAX_S, max_doublings=UNTIL_THE_CAP)
 
 
-class Command(BaseCommand):
+class Command(LoopCommand):
     help = __doc__.splitlines()[0]
-
-    # The idle wait's sleep and the clock; tests replace them on the instance.
-    sleep: Callable[[float], None] = staticmethod(time.sleep)
-    clock: Callable[[], float] = staticmethod(time.monotonic)
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        self.stopping = False
         # vessel id -> (failures in a row, when to try again on self.clock)
         self.failures: dict[int, tuple[int, float]] = {}
         self.rebuilt = 0
@@ -77,15 +69,11 @@ class Command(BaseCommand):
         if opts["loop"] or opts["pending"]:
             if slugs:
                 raise CommandError("--loop and --pending take no vessel slugs")
-            previous = {s: signal.signal(s, self._stop) for s in (signal.SIGTERM, signal.SIGINT)}
-            try:
+            with self.stopped_by_signals():
                 if opts["loop"]:
                     self.run_loop(interval=opts["interval"])
                 else:
                     self.do_one_pass()
-            finally:
-                for sig, handler in previous.items():
-                    signal.signal(sig, handler)
             return
         self.rebuild_whole(slugs)
 
@@ -100,9 +88,6 @@ class Command(BaseCommand):
             started = time.monotonic()
             track_overview_rebuild(vessel=vessel)
             self.stdout.write(f"{vessel.slug}: rebuilt in {time.monotonic() - started:.1f} s")
-
-    def _stop(self, signum: int, frame: Any) -> None:
-        self.stopping = True
 
     def run_loop(self, *, interval: float) -> None:
         """Pass, wait ``interval`` seconds, repeat until the stop flag is set."""
@@ -156,11 +141,3 @@ class Command(BaseCommand):
             close_old_connections()
             return False
         return True
-
-    def wait(self, seconds: float) -> None:
-        """Sleep ``seconds`` in short steps, returning early once the stop flag is set."""
-        remaining = seconds
-        while remaining > 0 and not self.stopping:
-            step = min(STOP_CHECK_S, remaining)
-            self.sleep(step)
-            remaining -= step

@@ -139,6 +139,25 @@ def test_one_broken_channel_does_not_hold_up_the_others(
     assert len(receiver.received) == 1 and len(smtp_server.messages) == 1
 
 
+def test_a_stop_hands_back_what_was_not_sent_yet(
+    hook: NotificationChannel, receiver: Receiver
+) -> None:
+    rule = make_rule("Overdue", hook)
+    for slug in ("spab", "spab-2", "glider"):
+        notifications_queue(alert=make_alert(rule, make_vessel(slug)), event="alert.opened",
+                            now=BASE)  # fmt: skip
+
+    def stop() -> bool:  # told to stop once the first went out
+        return len(receiver.received) >= 1
+
+    assert notifications_send_due(now=BASE, worker="w1", stop=stop) == 1
+    assert sorted(states()) == [("pending", 0), ("pending", 0), ("sent", 1)]
+    assert not Notification.objects.filter(state="pending").exclude(claimed_by="").exists()
+    # The next sender takes them at once, as due as they were.
+    assert notifications_send_due(now=BASE, worker="w2") == 2
+    assert len(receiver.received) == 3
+
+
 def test_a_claim_left_by_a_dead_worker_is_taken_over_when_stale(
     hook: NotificationChannel, receiver: Receiver
 ) -> None:
