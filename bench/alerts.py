@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import http.server
+import json
 import os
 import random
 import statistics
