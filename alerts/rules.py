@@ -100,10 +100,15 @@ def battery(volts: float | None, threshold: float, clear_above: float | None = N
     BATTERY_MARGIN_V, a rule's ``maximum`` when it gives one)."""
     if not is_number(volts):
         return KEEP
-    clear = clear_above if clear_above is not None else threshold + BATTERY_MARGIN_V
+    clear = battery_clear_v(threshold, clear_above)
     if volts < threshold:
         return HOLDS
     return CLEARS if volts > clear else KEEP
+
+
+def battery_clear_v(threshold: float, clear_above: float | None = None) -> float:
+    """The voltage a battery alert clears above (:func:`battery`)."""
+    return clear_above if clear_above is not None else threshold + BATTERY_MARGIN_V
 
 
 # Reading ----------------------------------------------------------------------------------

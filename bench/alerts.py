@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import http.server
+import json
 import os
 import random
 import statistics
@@ -314,12 +315,15 @@ def fence_latency(built: dict[str, Any], env: dict[str, str], trials: int) -> di
     from telemetry.services import fix_ingest
     from vessels.models import Fence, Vessel
 
-    arrived: list[float] = []
+    # (when, alert id) of each alert.opened POST: a trial times its own alert's, not a late
+    # resolve or an earlier trial's.
+    arrived: list[tuple[float, int]] = []
 
     class Receiver(http.server.BaseHTTPRequestHandler):
         def do_POST(self) -> None:  # noqa: N802
-            self.rfile.read(int(self.headers.get("Content-Length", 0)))
-            arrived.append(time.perf_counter())
+            body = json.loads(self.rfile.read(int(self.headers.get("Content-Length", 0))))
+            if body.get("event") == "alert.opened":
+                arrived.append((time.perf_counter(), body["alert"]["id"]))
             self.send_response(204)
             self.end_headers()
 
@@ -349,13 +353,14 @@ def fence_latency(built: dict[str, Any], env: dict[str, str], trials: int) -> di
             fix_ingest(vessel=boat, records=[{"time": timezone.now().isoformat(),
                                               "lat": -30.0, "lon": 150.0}])  # fmt: skip
             time.sleep(12 + rng.uniform(0, 10))  # back inside; resolved; a random phase
-            arrived.clear()
+            earlier = set(Alert.objects.filter(rule=rule).values_list("pk", flat=True))
             posted = time.perf_counter()
             fix_ingest(vessel=boat, records=[{"time": timezone.now().isoformat(),
                                               "lat": -31.0, "lon": 150.0}])  # fmt: skip
             while time.perf_counter() - posted < 30:
-                if sender and arrived:
-                    figures.append(arrived[0] - posted)
+                mine = [at for at, pk in arrived if pk not in earlier]
+                if sender and mine:
+                    figures.append(mine[0] - posted)
                     break
                 if not sender and Alert.objects.filter(rule=rule, state="open").exists():
                     figures.append(time.perf_counter() - posted)
@@ -364,7 +369,7 @@ def fence_latency(built: dict[str, Any], env: dict[str, str], trials: int) -> di
     finally:
         _stop(proc)
         server.shutdown()
-    return {"sender": sender, "trials": figures}
+    return {"sender": sender, "trials": figures, "asked": trials}
 
 
 def _run_alerts(env: dict[str, str]) -> subprocess.Popen[bytes]:
@@ -456,7 +461,8 @@ def print_table(r: dict[str, Any]) -> None:
         t = lat["trials"]
         print(
             f"fence crossing -> {what}, period {r['period_s']:g} s: median "
-            f"{statistics.median(t):.2f} s, max {max(t):.2f} s over {len(t)} (target <= 5 s)"
+            f"{statistics.median(t):.2f} s, max {max(t):.2f} s; {len(t)} of {lat['asked']} "
+            "trials arrived within 30 s (target <= 5 s)"
         )
 
 

@@ -42,7 +42,7 @@ SENT, FAILED = NotificationState.SENT, NotificationState.FAILED
 # Longer than the slowest send (an SMS through the modem: a minute for +CMGS, plus waking and
 # setting the modem up), so a live worker's claim is never taken from under it.
 CLAIM_TIMEOUT = dt.timedelta(minutes=5)
-SEND_LIMIT = 100  # notifications claimed per pass; a flood beyond it is summarised per pass
+SEND_LIMIT = 100  # claimed per channel per pass; a flood beyond it is summarised per pass
 # The wait after the first failure, doubled per failure up to the cap: 30 s, 1, 2, 4 … 30 min
 # (8 attempts span about an hour, ALERTS_NOTIFY_MAX_ATTEMPTS).
 RETRY_FIRST_S = 30.0
@@ -67,9 +67,12 @@ def notifications_queue(*, alert: Alert, event: str, now: dt.datetime | None = N
     if event not in texts.EVENTS:
         raise ValueError(f"{event!r} is not one of {', '.join(texts.EVENTS)}")
     now = now or timezone.now()
+    # .all() and a filter in Python, not .filter(active=True): the evaluator prefetches each
+    # rule's channels, and a query per alert is most of a busy pass's writes (bench.alerts).
     rows = [
         Notification(alert=alert, channel=channel, event=event, created_at=now, due_at=now)
-        for channel in alert.rule.channels.filter(active=True)
+        for channel in alert.rule.channels.all()
+        if channel.active
     ]
     for row in rows:
         row.full_clean(exclude=["alert", "channel", "summarised_in"])  # FKs: just fetched
@@ -86,9 +89,9 @@ def notifications_send_due(*, now: dt.datetime | None = None, worker: str,
     """Claim the notifications due at ``now`` and send them; return how many were delivered
     (each one a summary carried counts). Call it outside any transaction.
 
-    1. Claim up to ``limit`` due rows (pending and due, or sending with a stale claim) in one
-       conditional UPDATE that stamps this pass's token and counts the attempt; keep the rows
-       that carry the token (a racing worker's UPDATE matches none of them).
+    1. Claim up to ``limit`` due rows per channel (pending and due, or sending with a stale
+       claim) in one conditional UPDATE that stamps this pass's token and counts the attempt;
+       keep the rows that carry the token (a racing worker's UPDATE matches none of them).
     2. Group them by channel and event. A group of more than ALERTS_NOTIFY_FLOOD on an e-mail
        or SMS channel is one summary, carried by its oldest row; the others are summarised_in it.
     3. Send each message after the claim committed; settle each row with a conditional UPDATE
@@ -130,11 +133,19 @@ def _claim(*, now: dt.datetime, token: str, limit: int) -> list[Notification]:
     due = Q(state__in=[PENDING, SENDING], due_at__lte=now) & (
         Q(state=PENDING) | Q(claimed_at__lt=now - CLAIM_TIMEOUT)
     )
-    rows = list(
-        Notification.objects.filter(due)
-        .order_by("due_at", "pk")
-        .values_list("pk", "state", "attempts")[:limit]
-    )
+    # Up to ``limit`` per channel, oldest first: one channel's backlog (a flood, a loop that
+    # stopped before sending) must not hold up the others pass after pass, as it did when the
+    # pass took the oldest ``limit`` of all (a fence crossing's webhook waited over 30 s behind
+    # e-mail owed, bench.alerts). A query per channel with something due: a handful.
+    owed = Notification.objects.filter(due)
+    channels = owed.order_by("channel_id").values_list("channel_id", flat=True).distinct()
+    rows = []
+    for channel_id in channels:
+        rows += (
+            owed.filter(channel_id=channel_id)
+            .order_by("due_at", "pk")
+            .values_list("pk", "state", "attempts")[:limit]
+        )
     # A stale claim that has had all its attempts: its sender died in the middle each time
     # (a send that kills the process?); taking it again would only repeat that for ever.
     spent = [pk for pk, state, tries in rows if state == SENDING and tries >= _max_attempts()]

@@ -29,7 +29,7 @@ that crosses it when the set is for an autopilot. Pure and stdlib-only.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from edge_client.contract.fix import RANGES
@@ -356,14 +356,21 @@ def _in_polygon(points: list[tuple[float, float]], lat: float, lon: float) -> bo
     answer either way, never an error: ``(lat_i > lat) != (lat_j > lat)`` excludes the
     horizontal edges whose division would be by zero."""
     lons = [p[1] for p in points]
-    low, high = min(lons), max(lons)
-    n = len(points)
+    return _in_edges(_edges(points), min(lons), max(lons), lat, lon)
+
+
+def _edges(points: list[tuple[float, float]]) -> list[tuple[float, float, float, float]]:
+    """Each edge as (lat_i, lon_i, lat_j, lon_j), j the vertex before i."""
+    return [(*points[i], *points[i - 1]) for i in range(len(points))]
+
+
+def _in_edges(edges: list[tuple[float, float, float, float]], low: float, high: float,
+              lat: float, lon: float) -> bool:  # fmt: skip
+    """:func:`_in_polygon` over its edges and longitude span, worked out beforehand."""
     for turn in range(math.ceil((low - lon) / 360.0), math.floor((high - lon) / 360.0) + 1):
         x = lon + 360.0 * turn
         inside = False
-        for i in range(n):
-            yi, xi = points[i]
-            yj, xj = points[i - 1]
+        for yi, xi, yj, xj in edges:
             if (yi > lat) != (yj > lat) and x < xi + (lat - yi) * (xj - xi) / (yj - yi):
                 inside = not inside
         if inside:
@@ -380,6 +387,46 @@ def contains(fence: Mapping[str, Any], lat: float, lon: float) -> bool:
         c = fence["circle"]
         return distance_m(c["lat"], c["lon"], lat, lon) <= c["radius_m"]
     return _in_polygon(unwrapped(fence["polygon"]), lat, lon)
+
+
+def containment(fence: Mapping[str, Any]) -> Callable[[float, float], bool]:
+    """:func:`contains` for one fence, asked about many points: the same answers, with the
+    polygon unwrapped once and points beyond its latitudes (or a circle's) answered at once.
+    The alerts evaluator asks it about every fix of every vessel a fence rule watches."""
+    if "circle" in fence and fence["circle"] is not None:
+        c = fence["circle"]
+        clat, clon, radius = c["lat"], c["lon"], c["radius_m"]
+        # A great circle is never shorter than its north-south leg, R * |dlat| (radians); the
+        # margin keeps the shortcut clear of the haversine's rounding at the edge.
+        reach = (radius * (1 + 1e-9) + 1e-6) / (math.radians(1.0) * EARTH_RADIUS_M)
+        # ... and never longer than the haversine's bound with sin(x) <= x and cos(lat) <= 1:
+        # within dlat^2 + cos(clat) dlon^2 <= (2 sin(radius / 2R))^2 (radians) is inside,
+        # with a margin far beyond rounding. (Longitudes unwrapped only make it larger.)
+        half = radius / (2 * EARTH_RADIUS_M)
+        near = (2 * math.sin(half)) ** 2 * (1 - 1e-6) if half < math.pi / 2 else 0.0
+        cos_c, rad = math.cos(math.radians(clat)), math.radians(1.0)
+
+        def in_circle(lat: float, lon: float) -> bool:
+            dlat = lat - clat
+            if abs(dlat) > reach:
+                return False
+            dlon = lon - clon
+            if (dlat * dlat + cos_c * dlon * dlon) * rad * rad <= near:
+                return True
+            return distance_m(clat, clon, lat, lon) <= radius
+
+        return in_circle
+    points = unwrapped(fence["polygon"])
+    south, north = min(p[0] for p in points), max(p[0] for p in points)
+    edges, low, high = _edges(points), min(p[1] for p in points), max(p[1] for p in points)
+
+    def in_polygon(lat: float, lon: float) -> bool:
+        # Outside its latitudes no edge straddles the point's ray: ray casting says outside.
+        if lat < south or lat > north:
+            return False
+        return _in_edges(edges, low, high, lat, lon)
+
+    return in_polygon
 
 
 def breached(fences: Sequence[Mapping[str, Any]], lat: float, lon: float) -> bool:

@@ -16,6 +16,7 @@ from edge_client.contract.fence import (
     breached,
     clean_fence,
     clean_fences,
+    containment,
     contains,
     from_geojson,
     wire_fence,
@@ -280,3 +281,31 @@ def test_geojson_polygons_and_points_become_the_wire_shape():
 def test_bad_geojson_is_refused_with_a_reason(geometry, radius, message):
     with pytest.raises(FenceError, match=message):
         from_geojson(geometry, radius)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    stars(),
+    st.floats(-89, 89),
+    st.floats(-180, 180),
+    st.floats(1, 5_000_000),
+    st.lists(
+        st.tuples(st.floats(-3, 3), st.floats(0, 360, exclude_max=True), st.floats(0, 2.5)),
+        min_size=1,
+        max_size=20,
+    ),
+)
+@example(((0.0, 0.0), [[-1, -1], [-1, 1], [1, 1], [1, -1]], []), 0.0, 179.9999, 500.0,
+         [(0.0, 90.0, 1.0), (1.0, 0.0, 0.0)])  # fmt: skip
+def test_containment_answers_as_contains_does(star, lat, lon, radius, probes):
+    """The evaluator's per-fence shortcut (alerts/evaluator.py) never answers otherwise."""
+    (lat0, lon0), ring, _ = star
+    for fence, (clat, clon), size in (
+        (circle(lat, lon, radius), (lat, lon), radius),
+        (polygon(ring), (lat0, lon0), 200_000.0),
+    ):
+        test = containment(fence)
+        for dlat, bearing, k in probes:
+            la, lo = offset(clat, clon, bearing, k * size)
+            la, lo = max(-90.0, min(90.0, la + dlat * k)), wrap(lo)
+            assert test(la, lo) == contains(fence, la, lo), (la, lo)

@@ -292,6 +292,23 @@ def test_a_summary_that_fails_is_retried_for_all_it_carries(
     assert len(smtp_server.messages) == 1
 
 
+def test_a_backlog_on_one_channel_does_not_hold_up_another(
+    hook: NotificationChannel, receiver: Receiver
+) -> None:
+    """bench.alerts' fence crossing whose webhook never came within 30 s: a backlog of e-mail
+    owed (a loop stopped before it sent them) took the pass's whole claim, oldest first, and
+    the webhook waited behind it pass after pass. Each channel now gets its own share."""
+    mail = make_channel("email", "ops@shore.test")
+    twenty_boats_overdue(mail)
+    crossing = make_alert(make_rule("Fence", hook), make_vessel("spab"))
+    notifications_queue(alert=crossing, event="alert.opened", now=BASE + S)
+    assert notifications_send_due(now=BASE + S, worker="w1", limit=5) == 6
+    [got] = receiver.received
+    assert got.json()["alert"]["id"] == crossing.pk
+    assert Notification.objects.filter(channel=mail, state="pending").count() == 15
+    assert notifications_send_due(now=BASE + 2 * S, worker="w1", limit=5) == 5  # and so on
+
+
 # -- channels ----------------------------------------------------------------------------------
 
 
