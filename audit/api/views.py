@@ -78,7 +78,14 @@ def when_param(request: Request, name: str) -> dt.datetime | None:
         value = None
     if value is None:
         raise ValidationError({name: [f"{raw!r} is not an ISO 8601 date-time"]})
-    return value if timezone.is_aware(value) else value.replace(tzinfo=dt.UTC)
+    if not timezone.is_aware(value):
+        return value.replace(tzinfo=dt.UTC)
+    # In UTC before it reaches the database: PostgreSQL refuses offsets past ±15:59, which
+    # ISO 8601 (and Python) allow.
+    try:
+        return value.astimezone(dt.UTC)
+    except OverflowError:  # the first hours of year 1, or the last of 9999, moved off the edge
+        raise ValidationError({name: [f"{raw!r} is out of range"]}) from None
 
 
 def entries_matching(request: Request) -> QuerySet[AuditEntry]:

@@ -45,9 +45,11 @@ def demo_operator(tmp_path: Path):
 
 
 def on_the_map(browser) -> dict[str, str]:
-    """{slug: label text} of the vessel markers drawn."""
+    """{slug: label text} of the vessel markers drawn. The text is the marker's own, shown or
+    not: a label that gives way to a nearer one (fleet_console.js declutter) is hidden, and
+    Selenium's ``.text`` of a hidden element is empty."""
     return {
-        m.get_attribute("data-slug"): m.text
+        m.get_attribute("data-slug"): " ".join(m.get_attribute("textContent").split())
         for m in browser.find_elements(By.CSS_SELECTOR, "#fleet-map .vessel-icon[data-slug]")
     }
 
