@@ -10,7 +10,6 @@ import pytest
 from django.core.files.uploadedfile import SimpleUploadedFile
 
 from audit.models import AuditEntry
-from commands import catalog
 from commands.models import Command
 from tests.vessels.test_fence_geometry import PLAN, SQUARE, polygon
 from vessels.fence_services import fence_create
@@ -136,10 +135,6 @@ def test_sending_needs_the_right_to_queue_commands(readonly, vessel_a):
     assert readonly.post(f"{URL}{fence.pk}/send/", {}, format="json").status_code == 403
 
 
-@pytest.mark.skipif(
-    "fence" not in catalog.KINDS,
-    reason="the fence command kind comes with the fence command's branch",
-)
 def test_sending_a_fence_queues_a_fence_command(watcher, vessel_a):
     fence = fence_create(name="Box", geometry=polygon(SQUARE), vessel=vessel_a)
     r = watcher.post(f"{URL}{fence.pk}/send/", {}, format="json")
