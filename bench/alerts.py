@@ -44,7 +44,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from bench.child import report
+from bench.child import databases, report
 from bench.child import run_child as run_database_child
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -477,10 +477,7 @@ def main(argv: list[str] | None = None) -> int:
     if opts._child:
         child(opts)
         return 0
-    dbs = ["sqlite"] + (["postgres"] if opts.postgres or os.environ.get("DATABASE_URL") else [])
-    if opts.db:
-        dbs = [opts.db]
-    for db in dbs:
+    for db in databases(opts.postgres, opts.db):
         print(f"- {db}: building the fleet and measuring ...", flush=True)
         print_table(run_child(db, opts))
     return 0

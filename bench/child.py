@@ -58,3 +58,11 @@ def run_child(
         if line.startswith(RESULT):
             return json.loads(line.removeprefix(RESULT))
     sys.exit(f"{module} ({db}) failed:\n{out.stdout[-3000:]}\n{out.stderr[-5000:]}")
+
+
+def databases(postgres: bool, only: str | None) -> list[str]:
+    """Which databases a run measures: SQLite, PostgreSQL too with ``--postgres`` or a
+    DATABASE_URL, or just ``--db``'s."""
+    if only:
+        return [only]
+    return ["sqlite"] + (["postgres"] if postgres or os.environ.get("DATABASE_URL") else [])

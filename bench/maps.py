@@ -32,7 +32,6 @@ import argparse
 import datetime as dt
 import json
 import math
-import os
 import random
 import resource
 import shutil
@@ -43,7 +42,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from bench.child import report
+from bench.child import databases, report
 from bench.child import run_child as run_database_child
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -447,10 +446,7 @@ def main(argv: list[str] | None = None) -> int:
     if opts._child:
         child(opts)
         return 0
-    dbs = ["sqlite"] + (["postgres"] if opts.postgres or os.environ.get("DATABASE_URL") else [])
-    if opts.db:
-        dbs = [opts.db]
-    for db in dbs:
+    for db in databases(opts.postgres, opts.db):
         print(f"- {db}: building {opts.fixes:,} fixes and measuring ...", flush=True)
         print_table(run_child(db, opts))
     return 0

@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
-import os
 import statistics
 import subprocess
 import sys
@@ -39,7 +38,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from bench.child import report
+from bench.child import databases, report
 from bench.child import run_child as run_database_child
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -262,10 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     if opts._child:
         child(opts)
         return 0
-    dbs = ["sqlite"] + (["postgres"] if opts.postgres or os.environ.get("DATABASE_URL") else [])
-    if opts.db:
-        dbs = [opts.db]
-    for db in dbs:
+    for db in databases(opts.postgres, opts.db):
         print(f"- {db}: loading {opts.fixes:,} fixes and thinning them ...", flush=True)
         print_table(run_child(db, opts))
     return 0
