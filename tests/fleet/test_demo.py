@@ -90,6 +90,9 @@ def test_seed_demo_makes_a_usable_fleet(tmp_path: Path) -> None:
     user = User.objects.get(username="operator")
     assert user.check_password("demo-pw-1") and user.is_staff
     assert user.has_perm("commands.add_command") and not user.is_superuser
+    # The operator watches the fleet too: the map's alert badges, rules, fences.
+    assert user.has_perm("alerts.view_alert") and user.has_perm("alerts.change_alert")
+    assert user.has_perm("alerts.add_alertrule") and user.has_perm("vessels.add_fence")
     keys = json.loads(keys_file.read_text())
     assert set(keys) == {"spab", "spab-2", "glider"}
     assert oct(keys_file.stat().st_mode & 0o777) == "0o600"

@@ -44,12 +44,20 @@ OPERATOR_PERMS = {
         "add_missionitem",
         "change_missionitem",
         "delete_missionitem",
+        "view_fence",
+        "add_fence",
+        "change_fence",
+        "delete_fence",
     ],
     "telemetry": ["view_fix", "view_sensorchannel", "add_sensorchannel", "change_sensorchannel"],
     "commands": ["view_command", "add_command", "change_command", "view_commandevent"],
     "sms": ["view_authorisednumber", "add_authorisednumber", "change_authorisednumber",
             "view_smsmessage"],
     "audit": ["view_auditentry"],
+    # Watching the fleet (docs/alerts.md): the map's alert badges need view_alert.
+    "alerts": ["view_alertrule", "add_alertrule", "change_alertrule", "delete_alertrule",
+               "view_alert", "change_alert", "view_notificationchannel",
+               "add_notificationchannel", "change_notificationchannel"],
 }  # fmt: skip
 # A field user's phone that may command the demo glider (docs/development.md; manage.py demo_sms).
 DEMO_NUMBER = "+61400000001"
