@@ -19,6 +19,7 @@ from rest_framework.response import Response
 from rest_framework.views import APIView
 
 from alerts.api.serializers import who
+from commands.api.missions import SendToVesselSerializer
 from commands.api.operator import CommandSerializer
 from commands.models import Command, Source
 from commands.services import fence_send
@@ -28,7 +29,7 @@ from vessels.api.missions import STRICT_FIELDS, VesselSlugField
 from vessels.api.parsers import JSONParser
 from vessels.fence_services import fence_create, fence_delete, fence_import, fence_update
 from vessels.fences import FENCE_MAX_VERTICES, RADIUS_MAX_M, RADIUS_MIN_M
-from vessels.models import Fence, Vessel
+from vessels.models import Fence
 from vessels.permissions import CanViewVessels, ModelPermissions
 from vessels.selectors import fences_visible_to
 
@@ -173,17 +174,10 @@ class FenceViewSet(viewsets.ModelViewSet):
         return Response(body, status=status.HTTP_201_CREATED)
 
 
-class FenceSendSerializer(serializers.Serializer):
+class FenceSendSerializer(SendToVesselSerializer):
     vessel = serializers.SlugField(
         required=False, help_text="slug of the vessel to load it (default: the fence's own)"
     )
-
-    def validate_vessel(self, slug: str) -> Vessel:
-        # A field of the body, not the URL: an unknown slug is bad input (400), not a 404.
-        vessel = Vessel.objects.filter(slug=slug).first()
-        if vessel is None:
-            raise serializers.ValidationError(f"no vessel {slug!r}")
-        return vessel
 
 
 class FenceSendView(APIView):

@@ -22,7 +22,18 @@ from vessels.permissions import CanViewVessels, ModelPermissions
 from vessels.selectors import missions_visible_to
 
 
-class MissionSendSerializer(serializers.Serializer):
+class SendToVesselSerializer(serializers.Serializer):
+    """The body of a "send this to a vessel" request (a mission, a fence): ``vessel``, a slug."""
+
+    def validate_vessel(self, slug: str) -> Vessel:
+        # A field of the body, not the URL: an unknown slug is bad input (400), not a 404.
+        vessel = Vessel.objects.filter(slug=slug).first()
+        if vessel is None:
+            raise serializers.ValidationError(f"no vessel {slug!r}")
+        return vessel
+
+
+class MissionSendSerializer(SendToVesselSerializer):
     vessel = serializers.SlugField(
         required=False, help_text="slug of the vessel to run it (default: the mission's own)"
     )
@@ -32,13 +43,6 @@ class MissionSendSerializer(serializers.Serializer):
         help_text="the mission's `updated_at` as the caller last read it: if the mission was "
         "saved since, nothing is sent (400), so what goes out is what the caller saw",
     )
-
-    def validate_vessel(self, slug: str) -> Vessel:
-        # A field of the body, not the URL: an unknown slug is bad input (400), not a 404.
-        vessel = Vessel.objects.filter(slug=slug).first()
-        if vessel is None:
-            raise serializers.ValidationError(f"no vessel {slug!r}")
-        return vessel
 
 
 class MissionSendView(APIView):

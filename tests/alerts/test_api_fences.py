@@ -144,3 +144,10 @@ def test_sending_a_fence_queues_a_fence_command(watcher, vessel_a):
         "fence", vessel_a, "api", "carol",
     )  # fmt: skip
     assert r.json()["uid"] == str(command.uid)
+
+
+def test_sending_to_a_vessel_that_does_not_exist_is_a_400_naming_it(watcher, vessel_a):
+    fence = fence_create(name="Box", geometry=polygon(SQUARE), vessel=None)
+    r = watcher.post(f"{URL}{fence.pk}/send/", {"vessel": "nope"}, format="json")
+    assert r.status_code == 400 and r.json()["detail"] == {"vessel": ["no vessel 'nope'"]}
+    assert not Command.objects.exists()
