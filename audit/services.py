@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import datetime as dt
 import ipaddress
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 from django.utils import timezone
@@ -67,3 +68,22 @@ def _address(ip: str | None) -> str | None:
         return str(ipaddress.ip_address((ip or "").strip().strip("[]")))
     except ValueError:
         return None
+
+
+def audit_value(value: Any) -> Any:
+    """A field's value as an entry's JSON holds it: a related row by its slug, else its id."""
+    if hasattr(value, "slug"):
+        return value.slug
+    if hasattr(value, "pk"):
+        return value.pk
+    return value
+
+
+def audit_snapshot(obj: object, names: Iterable[str]) -> dict[str, Any]:
+    """``names`` of ``obj`` as audit values, to compare before and after a change."""
+    return {name: audit_value(getattr(obj, name)) for name in names}
+
+
+def audit_changes(before: Mapping[str, Any], after: Mapping[str, Any]) -> dict[str, Any]:
+    """``{field: {"from", "to"}}`` for each field whose value differs; {} when none did."""
+    return {k: {"from": before[k], "to": after[k]} for k in after if before[k] != after[k]}

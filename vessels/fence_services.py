@@ -11,7 +11,7 @@ from typing import Any
 
 from django.db import transaction
 
-from audit.services import audit_record
+from audit.services import audit_changes, audit_record, audit_snapshot
 from vessels.missionfiles import fences as fencefiles
 from vessels.models import Fence, Vessel
 
@@ -72,7 +72,7 @@ def fence_update(
     unknown = set(fields) - set(FENCE_FIELDS)
     if unknown:
         raise ValueError(f"fence_update cannot change {', '.join(sorted(unknown))}")
-    before = {name: _plain(getattr(fence, name)) for name in fields}
+    before = audit_snapshot(fence, fields)
     for name, value in fields.items():
         setattr(fence, name, value)
     geometry = fence.geometry if isinstance(fence.geometry, dict) else {}
@@ -80,19 +80,10 @@ def fence_update(
         fence.radius_m = None
     fence.full_clean()
     fence.save()
-    changed = {
-        name: {"from": before[name], "to": _plain(getattr(fence, name))}
-        for name in fields
-        if before[name] != _plain(getattr(fence, name))
-    }
+    changed = audit_changes(before, audit_snapshot(fence, fields))
     if changed:
         _audit(fence, "fence.changed", by=by, via=via, ip=ip, changed=changed)
     return fence
-
-
-def _plain(value: Any) -> Any:
-    """A field's value as the audit log's JSON can hold it (a vessel by its slug)."""
-    return value.slug if isinstance(value, Vessel) else value
 
 
 @transaction.atomic

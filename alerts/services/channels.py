@@ -10,7 +10,7 @@ from typing import Any
 from django.db import transaction
 
 from alerts.models import NotificationChannel
-from audit.services import audit_record
+from audit.services import audit_changes, audit_record, audit_snapshot
 
 CHANNEL_FIELDS = ("name", "target", "active")
 
@@ -30,16 +30,12 @@ def notification_channel_update(
     unknown = set(fields) - set(CHANNEL_FIELDS)
     if unknown:
         raise ValueError(f"notification_channel_update cannot change {', '.join(sorted(unknown))}")
-    before = {name: getattr(channel, name) for name in fields}
+    before = audit_snapshot(channel, fields)
     for name, value in fields.items():
         setattr(channel, name, value)
     channel.full_clean()
     channel.save()
-    changed = {
-        k: {"from": before[k], "to": getattr(channel, k)}
-        for k in fields
-        if before[k] != getattr(channel, k)
-    }
+    changed = audit_changes(before, audit_snapshot(channel, fields))
     if changed:
         _audit(channel, "channel.changed", by=by, changed=changed)
     return channel

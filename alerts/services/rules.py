@@ -25,7 +25,7 @@ from django.core.exceptions import ValidationError
 from django.db import transaction
 
 from alerts.models import AlertRule, NotificationChannel, RuleKind
-from audit.services import audit_record
+from audit.services import audit_changes, audit_record, audit_snapshot
 from telemetry.models import SensorChannel
 
 THRESHOLD_MEANS = {
@@ -119,17 +119,8 @@ def _audit(
     )
 
 
-def _plain(value: Any) -> Any:
-    """A field's value as JSON: a vessel by slug, a fence by id."""
-    if hasattr(value, "slug"):
-        return value.slug
-    if hasattr(value, "pk"):
-        return value.pk
-    return value
-
-
 def _summary(rule: AlertRule) -> dict[str, Any]:
-    return {name: _plain(getattr(rule, name)) for name in RULE_FIELDS}
+    return audit_snapshot(rule, RULE_FIELDS)
 
 
 @transaction.atomic
@@ -179,7 +170,7 @@ def alert_rule_update(
     if channels is not None:
         rule.channels.set(list(channels))
     after = _summary(rule)
-    changed = {k: {"from": before[k], "to": after[k]} for k in after if before[k] != after[k]}
+    changed = audit_changes(before, after)
     new_channels = sorted(rule.channels.values_list("pk", flat=True))
     if new_channels != old_channels:
         changed["channels"] = {"from": old_channels, "to": new_channels}
