@@ -123,6 +123,18 @@ def acknowledge_from_the_panel(browser, alert: Alert) -> None:
         By.CSS_SELECTOR, '#fleet-map .vessel-icon[data-slug="spab"] .alert-badge.alert-acknowledged'
     )
     shot(browser, "fence-4-acknowledged")
+    # The vessel's own page lists it too (acknowledged, by whom) beside its battery endurance.
+    vessel = Alert.objects.get(pk=alert.pk).vessel
+    browser.get(
+        f"{browser.current_url.split('/admin/')[0]}/admin/vessels/vessel/{vessel.pk}/change/"
+    )
+    page = wait_for(browser, lambda b: b.find_element(By.CSS_SELECTOR, "table.open-alerts")).text
+    assert "acknowledged" in page and alert.rule.name in page
+    assert "not enough history yet" in browser.find_element(By.TAG_NAME, "body").text
+    browser.execute_script(
+        "document.querySelector('table.open-alerts').scrollIntoView({block: 'center'})"
+    )
+    shot(browser, "fence-5-vessel-page")
 
 
 def test_draw_a_fence_the_boat_leaves_it_an_alert_opens_and_is_acknowledged(
