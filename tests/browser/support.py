@@ -39,3 +39,17 @@ def wait_for(browser: Any, predicate: Callable[[Any], Any], timeout: float = WAI
 
 def js(browser: Any, script: str, *args: Any) -> Any:
     return browser.execute_script(script, *args)
+
+
+FLEET_MAP = "window.shoresideFleet.map"
+
+
+def set_view(
+    browser: Any, centre: tuple[float, float], zoom: int, leaflet_map: str = FLEET_MAP
+) -> None:
+    """Move a page's map, again until it took: Leaflet drops a view set while it animates."""
+    script = (
+        f"var m = {leaflet_map}; m.setView(arguments[0], arguments[1], {{animate: false}});"
+        "return m.getZoom() === arguments[1];"
+    )
+    wait_for(browser, lambda b: js(b, script, list(centre), zoom))

@@ -9,7 +9,7 @@ from urllib.parse import urlsplit
 import pytest
 from selenium.webdriver.common.by import By
 
-from tests.browser.support import js, log_in, shot, wait_for
+from tests.browser.support import js, log_in, set_view, shot, wait_for
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.django_db(transaction=True)]
 
@@ -35,10 +35,7 @@ def test_with_no_tiles_the_fleet_map_draws_the_coast_and_rottnest_from_local_fil
     browser, live_server, operator_user
 ) -> None:
     open_fleet_map(browser, live_server, operator_user)
-    js(
-        browser,
-        f"{BASE}.map.setView([{OFF_FREMANTLE[0]}, {OFF_FREMANTLE[1]}], 11, {{animate: false}})",
-    )
+    set_view(browser, OFF_FREMANTLE, 11, f"{BASE}.map")
     wait_for(browser, lambda b: "10m/s35e115" in coastline_loaded(b))
     # The cell with Rottnest (35°S–30°S, 115°E–120°E) came at the 1:10m detail.
     cells = [u for u in requested(browser) if "/vendor/naturalearth/" in u and "/10m/" in u]

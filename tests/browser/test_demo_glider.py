@@ -9,7 +9,7 @@ from collections.abc import Iterator
 import pytest
 from selenium.webdriver.common.by import By
 
-from tests.browser.support import js, shot, wait_for
+from tests.browser.support import js, set_view, shot, wait_for
 from tests.fleet.demo_script import Demo
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -51,7 +51,7 @@ def test_the_live_demo_glider_takes_a_fixed_heading_from_the_map(browser, demo: 
     wait_for(browser, glider_on_the_map, 60)
     # The seeded track ends minutes ago; the live glider's bridge reports within seconds.
     first = wait_for(browser, live_fix, 90)
-    js(browser, "window.shoresideFleet.map.setView([-32.08, 115.70], 15, {animate: false})")
+    set_view(browser, (-32.08, 115.70), 15)
     browser.find_element(By.CSS_SELECTOR, '#fleet-map .vessel-icon[data-slug="glider"]').click()
     wait_for(browser, lambda b: "Wave Glider" in b.find_element(By.ID, "fleet-panel").text)
 

@@ -17,7 +17,7 @@ from alerts.services.rules import alert_rule_create
 from commands.services import command_enqueue
 from edge_client.contract.geo import offset
 from tests.alerts.conftest import ALERT_PERMS
-from tests.browser.support import js, log_in, shot, wait_for
+from tests.browser.support import js, log_in, set_view, shot, wait_for
 from tests.browser.test_fleet_map import (
     HOME,
     fleet_ready,
@@ -71,7 +71,7 @@ def draw_fence(browser, live_server, vessel: Vessel, square: list[tuple[float, f
     browser.get(live_server.url + "/admin/vessels/fence/add/")
     wait_for(browser, lambda b: js(b, "return !!window.shoresideFenceEditor"))
     editor = "window.shoresideFenceEditor.map"
-    js(browser, f"{editor}.setView(arguments[0], 16, {{animate: false}})", list(HOME))
+    set_view(browser, HOME, 16, editor)
     browser.find_element(By.NAME, "name").send_keys("Harbour box")
     browser.find_element(
         By.CSS_SELECTOR, f'select[name=vessel] option[value="{vessel.pk}"]'

@@ -15,7 +15,7 @@ from selenium.webdriver.common.by import By
 from commands.models import Command
 from commands.services import command_ack, command_claim_open, command_enqueue
 from telemetry.services import fix_ingest
-from tests.browser.support import js, log_in, shot, wait_for
+from tests.browser.support import js, log_in, set_view, shot, wait_for
 from tests.browser.test_fleet_map import HOME, simulated_boat  # noqa: F401 (a fixture)
 from tests.edge_client.helpers import wait_until
 from vessels.models import Vessel
@@ -100,7 +100,7 @@ def test_the_trail_fades_and_the_running_mission_shows_its_waypoint(
     )
     log_in(browser, live_server, operator_user)
     wait_for(browser, overlays_drawn)
-    js(browser, "window.shoresideFleet.map.setView(arguments[0], 14, {animate: false})", list(HERE))
+    set_view(browser, HERE, 14)
 
     # The trail: one run per age band, each older band fainter than the one after it.
     trail = wait_for(
@@ -219,7 +219,7 @@ def test_labels_of_a_crowded_fleet_do_not_overlap_when_zoomed_out(
         browser, lambda b: js(b, "return !!(window.shoresideFleet && window.shoresideFleet.fitted)")
     )
     wait_for(browser, lambda b: len(label_boxes(b)) == 12)
-    js(browser, "window.shoresideFleet.map.setView([-32.15, 115.7], 9, {animate: false})")
+    set_view(browser, (-32.15, 115.7), 9)
 
     def settled(b) -> list[dict] | None:
         boxes = label_boxes(b)
@@ -295,7 +295,7 @@ def test_a_mission_run_by_the_simulated_boat_shows_the_waypoint_it_heads_for(
     wait_for(
         browser, lambda b: js(b, "return !!(window.shoresideFleet && window.shoresideFleet.fitted)")
     )
-    js(browser, "window.shoresideFleet.map.setView(arguments[0], 15, {animate: false})", list(HOME))
+    set_view(browser, HOME, 15)
     browser.find_element(By.CSS_SELECTOR, 'table.vessel-list tr[data-slug="spab"]').click()
 
     def heading_to(b) -> str | None:

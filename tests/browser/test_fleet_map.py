@@ -19,7 +19,7 @@ from commands.services import command_enqueue
 from edge_client.contract.geo import bearing_deg, distance_m, offset
 from telemetry.models import SensorChannel
 from telemetry.services import fix_ingest, sensor_channel_save
-from tests.browser.support import js, log_in, shot, wait_for
+from tests.browser.support import js, log_in, set_view, shot, wait_for
 from tests.conftest import make_user
 from tests.edge_client.conftest import free_port
 from tests.edge_client.helpers import start, stop, wait_until
@@ -226,7 +226,7 @@ def test_a_fixed_heading_is_picked_on_the_map_and_a_light_queued_then_cancelled(
     )
     log_in(browser, live_server, operator_user)
     wait_for(browser, lambda b: fleet_ready(b) and "glider" in on_the_map(b))
-    js(browser, "window.shoresideFleet.map.setView([-32.0380, 115.3325], 14, {animate: false})")
+    set_view(browser, (-32.0380, 115.3325), 14)
     open_panel(browser, "glider")
     browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="fhead"]').click()
     the_map = browser.find_element(By.ID, "fleet-map")
@@ -326,7 +326,7 @@ def test_a_far_move_to_is_warned_about_and_refused_past_the_vessels_limit(
     log_in(browser, live_server, operator_user)
     wait_for(browser, lambda b: fleet_ready(b) and "spab" in on_the_map(b))
     # Zoomed out to a continent: 200 px from the boat is hundreds of kilometres.
-    js(browser, "window.shoresideFleet.map.setView(arguments[0], 6, {animate: false})", perth)
+    set_view(browser, perth, 6)
     open_panel(browser, "spab")
     browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="move_to"]').click()
     the_map = browser.find_element(By.ID, "fleet-map")
@@ -350,7 +350,7 @@ def test_a_far_move_to_is_warned_about_and_refused_past_the_vessels_limit(
     shot(browser, "fleet-13-far-move-to-refused")
 
     # A move of a few hundred metres: no warning, and it is queued.
-    js(browser, "window.shoresideFleet.map.setView(arguments[0], 16, {animate: false})", perth)
+    set_view(browser, perth, 16)
     js(browser, "window.shoresideFleet.cancelPick()")
     browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="move_to"]').click()
     ActionChains(browser).move_to_element_with_offset(the_map, 60, -40).click().perform()
@@ -399,7 +399,7 @@ def test_a_move_to_queued_from_the_map_is_carried_out_by_the_simulated_boat(
     )
     log_in(browser, live_server, operator_user)
     wait_for(browser, lambda b: fleet_ready(b) and "spab" in on_the_map(b))
-    js(browser, "window.shoresideFleet.map.setView(arguments[0], 16, {animate: false})", list(HOME))
+    set_view(browser, HOME, 16)
     open_panel(browser, "spab")
     browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="move_to"]').click()
     the_map = browser.find_element(By.ID, "fleet-map")

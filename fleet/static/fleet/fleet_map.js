@@ -142,7 +142,9 @@
     if (!this.fitted) {
       var points = Object.keys(this.markers).map(function (s) { return self.markers[s].getLatLng(); });
       if (points.length) {
-        this.map.fitBounds(L.latLngBounds(points).pad(0.2), { maxZoom: FIT_MAX_ZOOM });
+        // Not animated: Leaflet drops a setView that comes while a zoom animates, so a click
+        // on "+3" just after the page loads would do nothing.
+        this.map.fitBounds(L.latLngBounds(points).pad(0.2), { maxZoom: FIT_MAX_ZOOM, animate: false });
         this.fitted = true;
       }
     }
