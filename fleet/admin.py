@@ -7,10 +7,8 @@ action; the apps' own admins stay within their app and never import the apps abo
 from __future__ import annotations
 
 import json
-import math
 from typing import Any
 
-from django.conf import settings
 from django.contrib import admin, messages
 from django.core.exceptions import PermissionDenied
 from django.db.models import Count, Q, QuerySet
@@ -23,7 +21,7 @@ from django.utils.html import format_html, format_html_join
 
 from alerts.admin import state_badge
 from alerts.models import ACTIVE_STATES, Alert
-from alerts.selectors import vessel_endurance_hours
+from alerts.selectors import endurance_text, vessel_endurance_hours
 from commands.admin import CommandAdmin, status_badge
 from commands.errors import CommandError
 from commands.models import Command, Source
@@ -104,12 +102,7 @@ class FleetVesselAdmin(VesselAdmin):
         """As the endurance rules judge it (docs/alerts.md#battery-endurance)."""
         if vessel.pk is None:
             return "–"
-        hours = vessel_endurance_hours(vessel=vessel)
-        if hours is None:
-            return "not enough history yet (it needs two days of reports)"
-        if math.isinf(hours):
-            return "the battery is not falling, day over day"
-        return f"{hours:.0f} h to empty ({settings.ALERTS_BATTERY_EMPTY_V:g} V), day over day"
+        return endurance_text(vessel_endurance_hours(vessel=vessel))
 
     class Media:
         css = {"all": ["commands/status.css"]}  # the recent commands' status badges

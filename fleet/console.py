@@ -1,5 +1,5 @@
-"""The fleet map's overlays (issue 18 §2): each vessel's trail of recent positions and the
-mission it is running, read together for the whole fleet.
+"""The fleet map's overlays (issue 18 §2): each vessel's trail of recent positions, the
+mission it is running and its battery endurance, read together for the whole fleet.
 
 Polled far less often than the fleet itself (``FLEET_MAP_TRAIL_REFRESH_S``): between two
 reads the page extends each trail with the last fixes the fleet poll brings anyway. Reads only:
@@ -11,9 +11,13 @@ with no fix in the window costs no query at all.
 from __future__ import annotations
 
 import datetime as dt
-from collections.abc import Iterable
+import hashlib
+from collections.abc import Iterable, Mapping
 from typing import Any
 
+from django.core.cache import cache
+
+from alerts.selectors import endurance_entry, fleet_endurance_hours
 from commands.models import Command
 from edge_client.contract.status import UNFINISHED, Status
 from telemetry.track import gap_seconds, sketch
@@ -24,6 +28,8 @@ TRAIL_MAX_POINTS = 300
 TRAIL_MAX_MINUTES = 24 * 60
 COORD_DECIMALS = 6  # ~0.1 m, as the track endpoint
 MISSION_KIND = "mission"
+# Endurance moves when an hour's battery mean is complete: read at most this often.
+ENDURANCE_CACHE_S = 300
 
 
 def _epoch(t: float) -> float | int:
@@ -98,14 +104,30 @@ def mission_entry(command: Command) -> dict[str, Any]:
     }
 
 
+def fleet_endurance(vessels: Iterable[Vessel], now: dt.datetime) -> dict[int, Mapping[str, Any]]:
+    """Each vessel's battery endurance for its panel (alerts.selectors), read at most once per
+    ENDURANCE_CACHE_S: it moves only when an hour's mean is complete, and the overlays are read
+    by every open map."""
+    ids = sorted(v.pk for v in vessels)
+    key = "fleet-endurance:" + hashlib.sha256(",".join(map(str, ids)).encode()).hexdigest()
+    entries = cache.get(key)
+    if entries is None:
+        hours = fleet_endurance_hours(ids, now=now)
+        entries = {pk: endurance_entry(h) for pk, h in hours.items()}
+        cache.set(key, entries, ENDURANCE_CACHE_S)
+    return entries
+
+
 def fleet_overlays(
     vessels: Iterable[Vessel], *, now: dt.datetime, minutes: int, trails: bool, missions: bool
 ) -> list[dict[str, Any]]:
-    """Per vessel: its trail over the last ``minutes`` (None without the right to see fixes)
-    and its running mission (None when it runs none, or without the right to see commands)."""
+    """Per vessel: its trail over the last ``minutes`` and its battery endurance (None without
+    the right to see fixes), and its running mission (None when it runs none, or without the
+    right to see commands)."""
     vessels = list(vessels)
     start = now - dt.timedelta(minutes=minutes)
     running = running_missions(v.pk for v in vessels) if missions and vessels else {}
+    endurance = fleet_endurance(vessels, now) if trails and vessels else {}
     entries = []
     for vessel in vessels:
         mission = running.get(vessel.pk)
@@ -114,6 +136,7 @@ def fleet_overlays(
                 "slug": vessel.slug,
                 "trail": trail(vessel, start, now) if trails and minutes else None,
                 "mission": mission_entry(mission) if mission else None,
+                "endurance": endurance.get(vessel.pk),
             }
         )
     return entries

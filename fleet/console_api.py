@@ -56,10 +56,20 @@ class _FenceSerializer(serializers.Serializer):
     radius_m = serializers.FloatField(allow_null=True)
 
 
+class _EnduranceSerializer(serializers.Serializer):
+    hours = serializers.FloatField(
+        allow_null=True, help_text="hours to the empty voltage; null unless falling"
+    )
+    text = serializers.CharField(help_text="as the vessel's panel says it")
+
+
 class _OverlaySerializer(serializers.Serializer):
     slug = serializers.SlugField()
     trail = _TrailSerializer(allow_null=True)
     mission = _MissionSerializer(allow_null=True)
+    endurance = _EnduranceSerializer(
+        allow_null=True, help_text="battery endurance, day over day (null without view_fix)"
+    )
 
 
 class OverlaysSerializer(serializers.Serializer):
@@ -98,7 +108,8 @@ class FleetOverlaysView(APIView):
     vessel was silent longer than `gap_s`; simplified to a few hundred points. The mission is
     the vessel's newest acknowledged `mission` command (else its newest queued or sent one):
     its waypoints in order and how it ends; the waypoint the vessel is heading to is in its
-    fixes' readings (`waypoint` of `waypoints`). The fences of the fleet's vessels and those
+    fixes' readings (`waypoint` of `waypoints`). The endurance is the battery's, as endurance
+    alert rules judge it (read at most every 5 minutes). The fences of the fleet's vessels and those
     every vessel keeps come with them. Poll it seldom: the fleet poll's last fixes extend the
     trails in between.
     """

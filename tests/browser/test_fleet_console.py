@@ -12,9 +12,11 @@ import pytest
 from django.utils import timezone
 from selenium.webdriver.common.by import By
 
+from alerts.selectors import vessel_endurance_hours
 from commands.models import Command
 from commands.services import command_ack, command_claim_open, command_enqueue
 from telemetry.services import fix_ingest
+from tests.alerts.test_evaluator import drain
 from tests.browser.support import js, log_in, set_view, shot, wait_for
 from tests.browser.test_fleet_map import HOME, simulated_boat  # noqa: F401 (a fixture)
 from tests.edge_client.helpers import wait_until
@@ -311,3 +313,31 @@ def test_a_mission_run_by_the_simulated_boat_shows_the_waypoint_it_heads_for(
     assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map path.mission-leg.done")
     assert browser.find_elements(By.CSS_SELECTOR, "#fleet-map .mission-wp.current")
     shot(browser, "console-6-simulated-boat-next-waypoint")
+
+
+def test_the_vessels_panel_shows_its_battery_endurance(
+    browser, live_server, operator_user, settings
+) -> None:
+    settings.ALERTS_BATTERY_EMPTY_V = 11.0
+    falling = vessel_create(slug="falling", name="Falling", kind="mavlink")
+    drain(falling, 50, start_v=12.5, per_hour=0.02)  # two days, the sun on top
+    vessel_create(slug="new", name="New", kind="mavlink")
+    fix_ingest(
+        vessel=Vessel.objects.get(slug="new"),
+        records=[{"time": iso(timezone.now()), "lat": -32.0, "lon": 115.7, "battery_v": 12.6}],
+    )
+    log_in(browser, live_server, operator_user)
+
+    def endurance_row(b) -> str | None:
+        rows = b.find_elements(By.XPATH, "//table[@class='readings']//tr[th='Endurance']/td")
+        return rows[0].text if rows else None
+
+    browser.find_element(By.CSS_SELECTOR, 'table.vessel-list tr[data-slug="falling"]').click()
+    said = wait_for(browser, endurance_row)
+    # As the endurance rule judges it: about 30 h from the last night's trough at 0.02 V/h.
+    hours = vessel_endurance_hours(vessel=falling)
+    assert said == f"{hours:.0f} h to empty (11 V), day over day"
+    shot(browser, "console-5-endurance-in-the-panel")
+    browser.find_element(By.CSS_SELECTOR, 'table.vessel-list tr[data-slug="new"]').click()
+    wait_for(browser, lambda b: endurance_row(b) == "not enough history yet (it needs two days "
+             "of reports)")  # fmt: skip

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from django.core.cache import cache
 from django.core.management import call_command
 from django.db import connection
 from django.test import Client
@@ -19,12 +20,14 @@ from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 from rest_framework.test import APIClient
 
+from alerts.selectors import vessel_endurance_hours
 from commands.models import Command
 from commands.services import command_ack, command_claim_open, command_enqueue
 from fleet.console import TRAIL_MAX_POINTS
 from fleet.maps import trail_choices
 from telemetry.models import TrackDirty
 from telemetry.services import fix_ingest
+from tests.alerts.test_evaluator import drain
 from tests.conftest import make_user
 from vessels.models import Vessel
 
@@ -175,6 +178,7 @@ def test_each_part_needs_its_right(vessel_a: Vessel) -> None:
     body = client.get(OVERLAYS).json()
     assert (body["trails"], body["missions"]) == (False, True)
     assert body["vessels"][0]["trail"] is None and body["vessels"][0]["mission"] is not None
+    assert body["vessels"][0]["endurance"] is None  # a figure from the fixes
     client.force_authenticate(make_user("dave", ["vessels.view_vessel", "telemetry.view_fix"]))
     body = client.get(OVERLAYS).json()
     assert (body["trails"], body["missions"]) == (True, False)
@@ -269,3 +273,34 @@ def test_a_trail_setting_out_of_range_stops_the_site(name: str, raw: str, said: 
     )  # fmt: skip
     assert result.returncode != 0
     assert f"{name}={raw} {said}" in result.stderr
+
+
+def test_each_vessel_comes_with_its_battery_endurance(
+    operator: APIClient, vessel_a: Vessel, vessel_b: Vessel, glider: Vessel, settings
+) -> None:
+    settings.ALERTS_BATTERY_EMPTY_V = 11.0
+    drain(vessel_a, 50, start_v=12.5, per_hour=0.02)
+    drain(glider, 50, start_v=12.5, per_hour=0.0)
+    sail(vessel_b, 5)
+    vessels = by_slug(operator.get(OVERLAYS).json())
+    falling = vessels["spab"]["endurance"]
+    # The endurance rule's figure: about 30 h from the last night's trough at 0.02 V/h.
+    assert falling["hours"] == round(vessel_endurance_hours(vessel=vessel_a), 1)
+    assert 25 < falling["hours"] < 35
+    assert falling["text"] == f"{falling['hours']:.0f} h to empty (11 V), day over day"
+    assert vessels[glider.slug]["endurance"] == {
+        "hours": None, "text": "the battery is not falling, day over day",
+    }  # fmt: skip
+    assert vessels[vessel_b.slug]["endurance"] == {
+        "hours": None, "text": "not enough history yet (it needs two days of reports)",
+    }  # fmt: skip
+
+
+def test_endurance_is_read_once_per_five_minutes_not_per_poll(
+    operator: APIClient, vessel_a: Vessel
+) -> None:
+    drain(vessel_a, 50, start_v=12.5, per_hour=0.02)
+    operator.get(OVERLAYS)  # the operator's permissions are cached on the user from here
+    cache.clear()
+    cold = statements(operator)
+    assert statements(operator) == cold - 1  # the hourly buckets of every vessel, in one query

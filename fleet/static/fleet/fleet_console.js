@@ -2,7 +2,7 @@
 // with age, the mission it runs with the waypoint it is heading to, and vessel labels that
 // give way to each other when zoomed out. Used by fleet_map.js (window.Shoreside.fleetConsole).
 //
-// Trails and missions come from /api/v1/fleet/overlays/, read every trailRefreshS seconds
+// Trails, missions and endurance come from /api/v1/fleet/overlays/, read every trailRefreshS seconds
 // (with If-None-Match); in between, every fleet poll's last fixes extend the trails, so the
 // fleet poll stays as cheap as it was.
 (function () {
@@ -61,6 +61,7 @@
     this.minutes = this.cfg.trailMinutes;
     this.trails = {}; // slug -> {gap_s, lines: [[[t, lat, lon], ...], ...]}
     this.missions = {}; // slug -> the running mission (fleet.console.mission_entry)
+    this.endurance = {}; // slug -> {hours, text}: the battery's, day over day
     this.trailGroups = {};
     this.missionGroups = {};
     this.etag = null;
@@ -133,9 +134,11 @@
     var self = this;
     this.trails = {};
     this.missions = {};
+    this.endurance = {};
     data.vessels.forEach(function (o) {
       if (o.trail) { self.trails[o.slug] = o.trail; }
       if (o.mission) { self.missions[o.slug] = o.mission; }
+      if (o.endurance) { self.endurance[o.slug] = o.endurance; }
     });
     this.version += 1;
     S.fleetConsole.drawFences(this, data.fences);

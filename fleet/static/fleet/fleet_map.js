@@ -214,7 +214,7 @@
       node.setAttribute("data-status", st.status);
       L.DomUtil[slug === self.selected ? "addClass" : "removeClass"](node, "selected");
     });
-    var key = JSON.stringify([this.selected, this.version, this.order.map(function (slug) {
+    var key = JSON.stringify([this.selected, this.version, this.overlays.version, this.order.map(function (slug) {
       return self.state(self.vessels[slug]).status;
     })]);
     if (key !== this.headKey) { this.headKey = key; this.renderHead(); }
@@ -306,6 +306,8 @@
       ["Heading", S.fmtHeading(fix.heading_deg)],
       [this.label("battery_v"), S.fmtValue(fix.battery_v, this.unit("battery_v"))],
     ];
+    var endurance = this.overlays.endurance[v.slug];
+    if (endurance) { rows.push(["Endurance", endurance.text]); }
     var readings = fix.readings || {};
     S.readingKeys(readings, this.cfg.channels).forEach(function (key) {
       rows.push([self.label(key), S.fmtReading(key, readings[key], self.cfg.channels)]);
