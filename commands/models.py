@@ -50,6 +50,13 @@ class Command(models.Model):
                 condition=Q(status__in=[s.value for s in OPEN]),
                 name="command_open_by_vessel",
             ),
+            # The alerts loop's command rules read the commands that ended since its last pass,
+            # every few seconds (alerts.evaluator.ended_commands): without it, the whole table.
+            models.Index(
+                fields=["finished_at"],
+                condition=Q(finished_at__isnull=False),
+                name="command_finished_at",
+            ),
         ]
 
     def __str__(self) -> str:
