@@ -70,48 +70,51 @@ class BitWriter:
 
 
 class BitReader:
-    """Reads what a BitWriter wrote from ``data``."""
+    """Reads what a BitWriter wrote from ``data``.
 
-    __slots__ = ("_data", "_end", "_pos")
+    The next bits wait in a small integer refilled REFILL_BYTES at a time: a read is a shift and
+    a mask of a few machine words, and the zeros that open an Exp-Golomb code are counted
+    with bit_length instead of bit by bit (a decode is mostly these two)."""
+
+    __slots__ = ("_buf", "_data", "_have", "_next", "_remaining")
+
+    REFILL_BYTES = 32
 
     def __init__(self, data: bytes) -> None:
         self._data = data
-        self._pos = 0
-        self._end = len(data) * 8
+        self._next = 0  # the next byte of data to load
+        self._buf = 0  # the loaded bits not read yet: exactly _have of them
+        self._have = 0
+        self._remaining = len(data) * 8
+
+    def _fill(self, need: int) -> None:
+        while self._have < need and self._next < len(self._data):
+            chunk = self._data[self._next : self._next + self.REFILL_BYTES]
+            self._next += len(chunk)
+            self._buf = (self._buf << (8 * len(chunk))) | int.from_bytes(chunk, "big")
+            self._have += 8 * len(chunk)
 
     def read(self, width: int) -> int:
-        end = self._pos + width
-        if end > self._end:
+        if width > self._remaining:
             raise BitsError("the payload ends in the middle of a field")
-        value = self._peek(self._pos, width)
-        self._pos = end
+        if self._have < width:
+            self._fill(width)
+        have = self._have - width
+        value = self._buf >> have
+        self._buf &= (1 << have) - 1
+        self._have = have
+        self._remaining -= width
         return value
 
-    def _peek(self, pos: int, width: int) -> int:
-        if not width:
-            return 0
-        first, last = pos >> 3, (pos + width + 7) >> 3
-        chunk = int.from_bytes(self._data[first:last], "big")
-        return (chunk >> ((last << 3) - pos - width)) & ((1 << width) - 1)
-
     def exp_golomb(self, k: int) -> int:
-        # One look at the next bits finds the prefix and, mostly, the whole code.
-        pos = self._pos
-        width = min(64, self._end - pos)
-        window = self._peek(pos, width)
-        zeros = width - window.bit_length()
+        if self._have <= MAX_PREFIX:
+            self._fill(MAX_PREFIX + 1)
+        zeros = self._have - self._buf.bit_length()
         if zeros > MAX_PREFIX:
             raise BitsError("a number longer than any this format writes")
-        if not window:
+        if not self._buf:
             raise BitsError("the payload ends in the middle of a field")
-        size = 2 * zeros + 1 + k
-        if size <= width:
-            self._pos = pos + size
-            v = (window >> (width - size)) & ((1 << size) - 1)
-        else:
-            self._pos = pos + zeros
-            v = self.read(zeros + 1 + k)
-        return v - (1 << k)
+        return self.read(2 * zeros + 1 + k) - (1 << k)
 
     def signed(self, k: int) -> int:
         z = self.exp_golomb(k)
@@ -119,4 +122,4 @@ class BitReader:
 
     @property
     def remaining(self) -> int:
-        return self._end - self._pos
+        return self._remaining
