@@ -124,6 +124,7 @@ class VesselAdmin(admin.ModelAdmin):
             {"fields": ["status_badge", "last_seen_at", "last_fix_at", "position", "battery"]},
         ),
         ("Keys", {"fields": ["issue_key_link"]}),
+        ("Compact telemetry", {"fields": ["compact_channels"], "classes": ["collapse"]}),
         ("Activity", {"fields": ["activity_links"]}),
     ]
 

@@ -11,6 +11,7 @@ from typing import Any
 
 from django.conf import settings
 from django.http import HttpRequest, HttpResponse, HttpResponseBase
+from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import extend_schema, extend_schema_field, inline_serializer
 from rest_framework import serializers, status
 from rest_framework.exceptions import AuthenticationFailed, NotAuthenticated, ParseError
@@ -20,7 +21,11 @@ from rest_framework.response import Response
 
 from edge_client.contract import fix as fix_shape
 from telemetry.api import parsers
-from telemetry.api.parsers import LegacyTelemetryJSONParser, TelemetryJSONParser
+from telemetry.api.parsers import (
+    CompactFixesParser,
+    LegacyTelemetryJSONParser,
+    TelemetryJSONParser,
+)
 from telemetry.errors import KeyRefused
 from telemetry.services import fix_ingest
 from vessels.api.boat import BoatView, LegacyBoatView, batch_answer_schema, telem_ack
@@ -78,12 +83,19 @@ class TelemetryView(BoatView):
     revoked meanwhile gets the same 401 as ever."""
 
     keys_checked_by_writes = True  # vessels.auth.VesselKeyAuthentication
-    parser_classes = [TelemetryJSONParser]
+    parser_classes = [TelemetryJSONParser, CompactFixesParser]
 
-    @extend_schema(request=_Batch, responses={200: _IngestResult}, tags=["boat"])
+    @extend_schema(
+        request={"application/json": _Batch, CompactFixesParser.media_type: OpenApiTypes.BINARY},
+        responses={200: _IngestResult},
+        tags=["boat"],
+    )
     def post(self, request: Request) -> Response:
-        """Store a batch of fixes (`{"fixes": [...]}`, or the bare list). Bad fixes are
-        reported by index; the good ones are kept; re-sent fixes count as duplicates."""
+        """Store a batch of fixes (`{"fixes": [...]}`, or the bare list; or a compact payload,
+        `application/vnd.shoreside.fixes`, answered alike). Bad fixes are reported by index;
+        the good ones are kept; re-sent fixes count as duplicates."""
+        if not request.data and request.content_type.startswith(CompactFixesParser.media_type):
+            raise ParseError("compact fixes: the body is empty")  # DRF parses no empty body
         result = fix_ingest(
             vessel=self.vessel(request),
             records=records_from_body(request.data),
