@@ -190,7 +190,6 @@ class SbdModem:
         or SbdError when the modem cannot be brought to take the message.
         """
         data = check_mo(mo) if mo is not None else None
-        ring = self._ring if answer_ring is None else answer_ring
         failures = 0
         written = False
         while True:
@@ -200,7 +199,8 @@ class SbdModem:
                 elif not written:
                     self.clear_buffers(mo=True)  # a mailbox check must not resend the last
                 written = True
-                result = self._attempt(ring)
+                # A ring may have come while the message was written: answer it now.
+                result = self._attempt(self._ring if answer_ring is None else answer_ring)
             except SbdError as exc:
                 if exc.permanent:
                     raise
