@@ -6,6 +6,7 @@ retry waits can be checked exactly; faults come from the simulator's switches.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 
 import pytest
@@ -131,7 +132,9 @@ def test_a_session_sends_and_receives_at_once(modem: SbdModem, sim: SimulatedSbd
 # -- ring alerts ----------------------------------------------------------------------------------
 
 
-def test_a_ring_is_awaited_and_answered_with_sbdixa(modem: SbdModem, sim: SimulatedSbdModem) -> None:
+def test_a_ring_is_awaited_and_answered_with_sbdixa(
+    modem: SbdModem, sim: SimulatedSbdModem
+) -> None:
     assert modem.wait_for_ring(0.2) is False
     sim.queue_mt(b"come home")
     assert modem.wait_for_ring(2.0) is True
@@ -281,9 +284,7 @@ def test_a_deaf_modem_times_out_then_is_set_up_again(
         modem.signal()
     assert not modem.ready
     sim.signal = 2
-    import time
-
-    time.sleep(0.4)
+    time.sleep(0.4)  # the deaf spell ends
     assert modem.signal() == 2
     assert sim.commands[-2:] == ["AT+SBDMTA=1", "AT+CSQ"]  # set up again first
 
