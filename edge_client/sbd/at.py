@@ -173,12 +173,14 @@ class SbdReader:
         buf = self._buf
         while buf:
             end = _line_end(buf)
-            if end < 0:
-                if len(buf) < MAX_LINE:
-                    return None
-                end = MAX_LINE
-            raw = bytes(buf[:end])
-            del buf[: end + 1 if end < len(buf) and buf[end] in b"\r\n" else end]
+            if end >= 0:
+                raw = bytes(buf[:end])
+                del buf[: end + 1]  # the line and its CR or LF (the other half drops as empty)
+            elif len(buf) >= MAX_LINE:
+                raw = bytes(buf[:MAX_LINE])
+                del buf[:MAX_LINE]
+            else:
+                return None
             text = raw.decode("latin-1").strip()
             if text:
                 return text

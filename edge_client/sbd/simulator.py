@@ -8,7 +8,8 @@ counts the MOMSN up on every successful session, and runs ``AT+SBDIX[A]`` agains
 the test side controls: ``network`` on or off (off: status 32), ``fail_codes`` (the statuses of
 the next sessions), MT messages queued with :meth:`queue_mt` (an ``SBDRING`` when ring alerts
 are on), and the sky's ``signal`` for ``AT+CSQ``. :class:`Faults` adds slow answers, garbage
-lines, a corrupted MO byte (answered 2) or MT frame, and a deaf modem.
+lines, a corrupted MO byte (answered 2), lost MO bytes (answered 1 after the write timeout,
+with no OK, as the ISU does), a corrupted MT frame, and a deaf modem.
 
 :class:`SbdModemServer` serves one on a pty. ``python -m edge_client.sbd.simulator`` runs one and
 prints the pty's path on its first line; lines on stdin drive it (``mt TEXT``, ``mthex HEX``,
@@ -53,6 +54,7 @@ class Faults:
     garbage: bool = False  # a junk line before every answer
     corrupt_write: bool = False  # the next AT+SBDWB message arrives with one byte flipped
     corrupt_frame: bool = False  # the next AT+SBDRB frame goes out with a wrong checksum
+    lose_write_bytes: int = 0  # bytes of the next AT+SBDWB message lost on the line (→ 1)
 
 
 @dataclass
@@ -142,6 +144,9 @@ class SimulatedSbdModem:
 
     def _byte(self, byte: int) -> None:
         if self._binary is not None:
+            if self.faults.lose_write_bytes > 0:
+                self.faults.lose_write_bytes -= 1
+                return
             self._binary.append(byte)
             if len(self._binary) == self._binary_size + 2:
                 self._finish_write(bytes(self._binary))

@@ -222,6 +222,17 @@ def test_a_checksum_answered_2_is_written_again(modem: SbdModem, sim: SimulatedS
     assert sim.delivered == [b"hello"]
 
 
+def test_a_write_timeout_answered_1_without_ok_is_written_again(
+    modem: SbdModem, sim: SimulatedSbdModem
+) -> None:
+    sim.write_timeout_s = 0.2  # the ISU's is 60 s
+    sim.faults.lose_write_bytes = 2  # the modem waits for two bytes that never come
+    result = modem.exchange(b"hello")
+    assert result.mo_sent and result.attempts == 1  # no wait for an OK that never comes
+    assert sim.commands.count("AT+SBDWB=5") == 2
+    assert sim.delivered == [b"hello"]
+
+
 def test_a_write_that_keeps_failing_counts_as_a_failed_attempt(
     server: SbdModemServer, sleeps: Sleeps
 ) -> None:
