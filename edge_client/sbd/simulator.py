@@ -392,7 +392,8 @@ def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
             elif not stdin_open:
                 time.sleep(0.1)
             for message in modem.received[reported:]:
-                print(f"MO momsn={message.momsn} {message.data!r}", file=out, flush=True)
+                what = f"{message.data!r}" if message.data else "(mailbox check)"
+                print(f"MO momsn={message.momsn} {what}", file=out, flush=True)
                 reported += 1
     except KeyboardInterrupt:
         pass
