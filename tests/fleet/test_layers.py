@@ -163,6 +163,9 @@ PURE = [
     "edge_client/geo.py",
     "edge_client/mission.py",
     "edge_client/fence_upload.py",
+    "edge_client/sbd/at.py",
+    "edge_client/sbd/errors.py",
+    "edge_client/sbd/session_codes.py",
     *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "edge_client/contract").glob("*.py")),
 ]
 IO = {"django", "rest_framework", "serial", "socket", "requests", "pymavlink", "sqlite3"}
