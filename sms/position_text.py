@@ -5,7 +5,7 @@ References: issue 20 §5 (the bridge texts its position to authorised numbers on
 
 The message, its parts separated by one space, each optional part left out when unknown::
 
-    Wave Glider 2026-11-28 11:30 UTC 36.80300,-121.78800 hdg 230 1.2kn batt 12.6V nav FHEAD 230
+    Wave Glider 2026-11-28 11:30 UTC 36.80300,-121.78800 hdg 230 1.2kn batt 12.6V nav #FHEAD 230
 
 the vessel's name, the fix's time in UTC to the minute (seconds dropped, never rounded up),
 latitude and longitude to 5 decimals (~1 m), heading (degrees true, three digits), speed over
@@ -52,7 +52,7 @@ class PositionReport:
     speed_mps: float | None = None
     battery_v: float | None = None
     name: str = ""  # the vessel's
-    state: str = ""  # the C&C's, as the bridge knows it ("nav FHEAD 230")
+    state: str = ""  # the C&C's, as the bridge knows it ("nav #FHEAD 230")
 
 
 def format_position(report: PositionReport) -> str:
