@@ -132,7 +132,6 @@ def test_nobody_to_tell_is_logged_once_and_a_number_never_gets_a_fix_twice(
 # -- the whole bridge: the C&C simulator, the modem simulator --------------------------------------
 
 
-
 @pytest.mark.slow
 @pytest.mark.django_db(transaction=True)
 def test_the_bridge_texts_its_position_on_schedule_through_the_modem(
