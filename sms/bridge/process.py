@@ -16,8 +16,9 @@ board answered in 4–17 ms; §2, §10 of docs/level2.md):
 * ``loops`` given to the bridge (the shore link's ``run(stop)``), each in a thread of its own:
   a slow shore server delays nothing else.
 * the main thread: :meth:`Bridge.do_one_housekeeping` about once a second (command timeouts,
-  fix batches, results the database refused, ``close_old_connections``; a step that keeps
-  failing is retried ever less often) and the systemd watchdog.
+  fix batches, results the database refused, the position SMS on its schedule
+  (:mod:`sms.bridge.positions`), ``close_old_connections``; a step that keeps failing is
+  retried ever less often) and the systemd watchdog.
 
 A stop (SIGTERM/SIGINT set the flag) ends the threads, then writes what is still in memory
 (fixes, command results). Everything else is in the database as it happens: queued commands,
