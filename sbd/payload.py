@@ -1,0 +1,47 @@
+"""From a mobile-originated payload to fixes in the boat API's fix shape (telemetry ingest).
+
+The payload is the compact fix encoding of the boat–shore contract
+(edge_client/contract/compact.py); when it holds no fix, the Iridium network's own position of
+the modem stands in, with its circular error probable as the reading ``iridium_cep_km``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sbd.rockblock import Delivery
+from vessels.models import Vessel
+
+CEP_READING = "iridium_cep_km"
+
+
+class PayloadError(ValueError):
+    """The payload is not a compact fix payload."""
+
+
+def vessel_channels(vessel: Vessel) -> tuple[Any, ...]:
+    """The vessel's channel table for readings by index (a vessel field the compact codec's
+    work adds); none yet: readings by index decode to the codec's default names."""
+    return tuple(getattr(vessel, "compact_channels_table", ()) or ())
+
+
+def fixes_from_payload(vessel: Vessel, payload: bytes) -> list[dict[str, Any]]:
+    """The fixes ``payload`` holds, in the v1 fix shape; PayloadError if it is not one."""
+    if not payload:
+        return []
+    from edge_client.contract import compact  # the codec (issue 20 §2)
+
+    try:
+        return compact.decode(payload, vessel_channels(vessel))
+    except compact.CompactError as exc:
+        raise PayloadError(str(exc)) from None
+
+
+def iridium_fix(delivery: Delivery) -> dict[str, Any]:
+    """The network's position of the modem at the transmit time, as a fix."""
+    return {
+        "time": delivery.transmit_time.isoformat(),
+        "lat": delivery.lat,
+        "lon": delivery.lon,
+        "readings": {CEP_READING: delivery.cep_km},
+    }
