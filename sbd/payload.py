@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from edge_client.contract import compact
 from sbd.rockblock import Delivery
 from vessels.models import Vessel
 
@@ -19,18 +20,18 @@ class PayloadError(ValueError):
     """The payload is not a compact fix payload."""
 
 
-def vessel_channels(vessel: Vessel) -> tuple[Any, ...]:
-    """The vessel's channel table for readings by index (a vessel field the compact codec's
-    work adds); none yet: readings by index decode to the codec's default names."""
-    return tuple(getattr(vessel, "compact_channels_table", ()) or ())
+def vessel_channels(vessel: Vessel) -> list[compact.Channel]:
+    """The vessel's channel table for readings by index (Vessel.channel_table(), which comes
+    with the compact ingest; until then none: a payload with readings is refused)."""
+    table = getattr(vessel, "channel_table", None)
+    return list(table()) if callable(table) else []
 
 
 def fixes_from_payload(vessel: Vessel, payload: bytes) -> list[dict[str, Any]]:
-    """The fixes ``payload`` holds, in the v1 fix shape; PayloadError if it is not one."""
+    """The fixes ``payload`` holds, in the v1 fix shape; PayloadError if it is not one (or
+    the vessel's channel table is broken)."""
     if not payload:
         return []
-    from edge_client.contract import compact  # the codec (issue 20 §2)
-
     try:
         return compact.decode(payload, vessel_channels(vessel))
     except compact.CompactError as exc:

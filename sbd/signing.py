@@ -56,6 +56,8 @@ def public_key(path: str) -> RSAPublicKey:
 
 
 def _same(claim: Any, field: str, value: str) -> bool:
+    if str(claim).strip() == value.strip():
+        return True
     if field == "data":
         return str(claim).strip().lower() == value.strip().lower()
     if field in ("iridium_latitude", "iridium_longitude", "iridium_cep", "momsn"):
