@@ -42,6 +42,15 @@ def sbd_receive(*, delivery: Delivery, now: dt.datetime | None = None) -> Receiv
     vessel = Vessel.objects.filter(imei=delivery.imei).first()
     if vessel is None:
         raise UnknownImei(f"no vessel has the IMEI {delivery.imei}")
+    # The provider's retry, answered before any decoding; the constraint below still decides
+    # when two copies race.
+    if SbdMessage.objects.filter(
+        direction=Direction.IN,
+        imei=delivery.imei,
+        momsn=delivery.momsn,
+        transmit_time=delivery.transmit_time,
+    ).exists():
+        return Received(message=None, duplicate=True)
     status, detail = Status.DECODED, ""
     try:
         fixes = fixes_from_payload(vessel, delivery.data)

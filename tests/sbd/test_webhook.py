@@ -242,3 +242,36 @@ def test_a_malformed_signed_field_is_a_400_naming_it(
 
 def test_only_post_is_answered(webhook: Client, provider: Provider) -> None:
     assert webhook.get(URL).status_code == 405
+
+
+def test_the_database_itself_refuses_a_second_copy(provider: Provider, sbd_vessel: Vessel) -> None:
+    """What decides when two copies race past the look-up: the constraint, which sbd_receive
+    catches (a savepoint) and answers as a duplicate."""
+    from django.db import IntegrityError, transaction
+
+    from sbd.rockblock import parse_delivery
+    from sbd.services import sbd_receive
+
+    delivery = parse_delivery(provider.delivery(compact.encode(FIXES)))
+    sbd_receive(delivery=delivery)
+    with pytest.raises(IntegrityError), transaction.atomic():
+        SbdMessage.objects.create(
+            direction=Direction.IN,
+            vessel=sbd_vessel,
+            imei=IMEI,
+            momsn=delivery.momsn,
+            received_at=SENT,
+            transmit_time=SENT,
+            status=Status.DECODED,
+        )
+    # An outbound message has no MOMSN to collide on, and a wrapped MOMSN at another
+    # transmit time is another message.
+    SbdMessage.objects.create(
+        direction=Direction.IN,
+        vessel=sbd_vessel,
+        imei=IMEI,
+        momsn=delivery.momsn,
+        received_at=SENT,
+        transmit_time=SENT + dt.timedelta(days=400),
+        status=Status.DECODED,
+    )
