@@ -159,3 +159,20 @@ def test_usage_counts_messages_bytes_and_credits(
         "in": {"messages": 1, "bytes": 60, "credits": 2},
         "out": {"messages": 1, "bytes": 27, "credits": 1},  # the failed one cost nothing
     }
+
+
+def test_the_management_command_sends_the_queue(
+    mt: MtEndpoint, sbd_vessel: Vessel, settings: Any
+) -> None:
+    from io import StringIO
+
+    from django.core.management import call_command
+
+    sbd_queue_command(command=move_to(sbd_vessel))
+    out = StringIO()
+    call_command("sbd_send_queued", stdout=out)
+    assert out.getvalue().strip() == "sent 1" and len(mt.posts) == 1
+    settings.SBD_ROCKBLOCK_USERNAME = ""
+    err = StringIO()
+    call_command("sbd_send_queued", stderr=err)
+    assert "SBD_ROCKBLOCK_USERNAME" in err.getvalue()
