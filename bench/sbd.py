@@ -1,10 +1,10 @@
 """The Iridium SBD webhook, timed server-side: ``python -m bench.sbd [--count N]`` (issue 20 §3).
 
 RockBLOCK waits 5 s for an answer; the target is ≤ 50 ms of server time. A throwaway SQLite
-database in a temporary data dir (or DATABASE_URL), a provider key pair made here, a vessel
-with an IMEI; then N deliveries posted through Django's test client (the whole request path:
-middleware, the form, RS256 verification, the compact decode, the message row and the fix
-ingest), each timed alone:
+database in a temporary data dir (or DATABASE_URL: a fresh one), a provider key pair made here,
+a vessel with an IMEI; then N deliveries posted through Django's test client (the whole
+request path: middleware, the form, RS256 verification, the compact decode, the message row and
+the fix ingest), each timed alone:
 
 * ``fixes``: a 340-byte-class message of 20 compact fixes (a boat's half hour);
 * ``position``: an empty payload (the Iridium position kept as a fix);
