@@ -4,7 +4,7 @@ import datetime as dt
 from typing import Any
 
 from django.core.exceptions import ValidationError
-from django.core.validators import MaxValueValidator, MinValueValidator
+from django.core.validators import MaxValueValidator, MinValueValidator, RegexValidator
 from django.db import models
 from django.db.models import Q
 
@@ -25,6 +25,8 @@ from vessels.missions import (
 
 # A vessel silent for this many telemetry periods is overdue (docs/operating.md#the-admin).
 OVERDUE_PERIODS = 3
+# An Iridium modem's IMEI: 15 digits, how the SBD provider names the vessel's modem.
+IMEI_VALIDATOR = RegexValidator(r"^[0-9]{15}\Z", "An IMEI is 15 digits.")
 # Half the Earth's circumference: no two points are farther apart, so no limit needs more.
 MOVE_TO_MAX_LIMIT_M = 20_038_000
 
@@ -69,6 +71,17 @@ class Vessel(models.Model):
         blank=True,
         help_text='Readings in compact payloads, in order: [{"name": "humidity_pct", "step": '
         "0.1}, …]; each value is kept to its step. The boat's configuration must list the same.",
+    )
+    # Null, not blank, when there is none: unique, and many vessels have no Iridium modem.
+    imei = models.CharField(
+        "Iridium IMEI",
+        max_length=15,
+        unique=True,
+        null=True,
+        blank=True,
+        validators=[IMEI_VALIDATOR],
+        help_text="The IMEI of the vessel's Iridium SBD modem (15 digits): its messages "
+        "through the SBD provider are filed under this vessel. Empty: none.",
     )
     # Denormalised newest fix for the fleet list and map: {time, lat, lon, heading_deg, ...}.
     last_fix = models.JSONField(null=True, blank=True, editable=False)

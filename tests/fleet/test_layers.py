@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 # audit (the log every service writes) is the floor; operators (the operators' own API tokens
 # and login limit) sits beside vessels; alerts watch everything below and notify through sms.
 LAYER = {"audit": 0, "operators": 1, "vessels": 1, "telemetry": 2, "commands": 2, "sms": 3,
-         "alerts": 4, "fleet": 5}  # fmt: skip
+         "sbd": 3, "alerts": 4, "fleet": 5}  # fmt: skip
 STANDALONE = {"edge_client": {"django", "rest_framework", *LAYER}}
 
 
@@ -142,6 +142,8 @@ PURE = [
     "sms/language.py",
     "sms/replies.py",
     "sms/errors.py",
+    "sbd/errors.py",
+    "sbd/rockblock.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",
     "sms/level2/bodies.py",
