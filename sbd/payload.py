@@ -20,20 +20,13 @@ class PayloadError(ValueError):
     """The payload is not a compact fix payload."""
 
 
-def vessel_channels(vessel: Vessel) -> list[compact.Channel]:
-    """The vessel's channel table for readings by index (Vessel.channel_table(), which comes
-    with the compact ingest; until then none: a payload with readings is refused)."""
-    table = getattr(vessel, "channel_table", None)
-    return list(table()) if callable(table) else []
-
-
 def fixes_from_payload(vessel: Vessel, payload: bytes) -> list[dict[str, Any]]:
     """The fixes ``payload`` holds, in the v1 fix shape; PayloadError if it is not one (or
     the vessel's channel table is broken)."""
     if not payload:
         return []
     try:
-        return compact.decode(payload, vessel_channels(vessel))
+        return compact.decode(payload, vessel.channel_table())
     except compact.CompactError as exc:
         raise PayloadError(str(exc)) from None
 

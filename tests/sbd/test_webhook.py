@@ -67,6 +67,19 @@ def test_a_signed_delivery_stores_the_payloads_fixes(
     assert sbd_vessel.last_fix_at == dt.datetime(2026, 11, 28, 10, 40, tzinfo=dt.UTC)
 
 
+def test_readings_come_by_the_vessels_channel_table(
+    webhook: Client, provider: Provider, sbd_vessel: Vessel
+) -> None:
+    sbd_vessel.compact_channels = [{"name": "humidity_pct", "step": 0.1}]
+    sbd_vessel.save()
+    table = sbd_vessel.channel_table()
+    with_readings = [{**f, "readings": {"humidity_pct": 40.0 + i}} for i, f in enumerate(FIXES)]
+    response = post(webhook, provider.delivery(compact.encode(with_readings, table)))
+    assert response.json() == {"status": "stored", "fixes": 2}
+    stored = Fix.objects.filter(vessel=sbd_vessel).order_by("recorded_at")
+    assert [f.readings for f in stored] == [{"humidity_pct": 40.0}, {"humidity_pct": 41.0}]
+
+
 def test_the_providers_retry_is_counted_once(
     webhook: Client, provider: Provider, sbd_vessel: Vessel
 ) -> None:
