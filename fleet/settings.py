@@ -201,9 +201,9 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
-    # Counts the boat API's bytes per vessel as answered (links/http.py): outermost.
-    "links.http.LinkCountMiddleware",
-    "vessels.middleware.BoatApiSlimMiddleware",
+    # Trims the boat API's answers (vessels/middleware.py) and counts their bytes per vessel
+    # as answered (links/http.py): outermost.
+    "links.http.BoatApiMiddleware",
     "fleet.middleware.RejectNulMiddleware",
     "fleet.middleware.DatabaseUnavailableMiddleware",
     "django.middleware.security.SecurityMiddleware",

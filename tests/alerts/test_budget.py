@@ -48,6 +48,7 @@ def test_a_day_of_growing_spending_opens_one_episode_at_most(steps: list[int], l
 
 # -- the evaluator ---------------------------------------------------------------------------
 
+
 def states(rule: AlertRule) -> list[tuple[str, str, str]]:
     return list(
         Alert.objects.filter(rule=rule)

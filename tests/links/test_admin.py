@@ -32,8 +32,14 @@ def test_the_block_shows_each_transport(vessel_a: Vessel) -> None:
     link_count(vessel_id=vessel_a.pk, transport="sbd", at=yesterday, contact=True,
                messages_in=2, messages_out=1, bytes_in=100, bytes_out=27, credits=3,
                fixes_in=20)  # fmt: skip
-    link_count(vessel_id=vessel_a.pk, transport="sbd", at=NOW - dt.timedelta(days=8),
-               messages_in=50, bytes_in=5000, credits=100)  # fmt: skip  (not in the week)
+    link_count(
+        vessel_id=vessel_a.pk,
+        transport="sbd",
+        at=NOW - dt.timedelta(days=8),
+        messages_in=50,
+        bytes_in=5000,
+        credits=100,
+    )  # fmt: skip  (not in the week)
     link_count(vessel_id=vessel_a.pk, transport="http", at=NOW, contact=True, messages_in=1,
                messages_out=1, bytes_in=12_345, bytes_out=300, fixes_in=1)  # fmt: skip
     html = links_html(vessel_a.pk, now=NOW)
@@ -71,7 +77,8 @@ def test_a_budget_saved_on_the_admin_page(admin_ui: Client, vessel_a: Vessel) ->
     form = {"name": vessel_a.name, "kind": "mavlink", "active": "on", "telemetry_period_s": 10,
             "cruise_speed_mps": 1.5, "notes": "", "compact_channels": "[]",
             "keys-TOTAL_FORMS": 0, "keys-INITIAL_FORMS": 0,
-            "sbd_daily_credit_budget": 40, "sms_daily_budget": "", "http_daily_budget_kb": 500}  # fmt: skip
+            "sbd_daily_credit_budget": 40, "sms_daily_budget": "",
+            "http_daily_budget_kb": 500}  # fmt: skip
     response = admin_ui.post(f"/admin/vessels/vessel/{vessel_a.pk}/change/", form)
     assert response.status_code == 302, response.context["adminform"].form.errors
     vessel_a.refresh_from_db()
