@@ -91,6 +91,10 @@ class AlertRuleAdmin(admin.ModelAdmin):
             )
         if rule.kind == "fence":
             return str(rule.fence)
+        if rule.kind == "budget":
+            what = rule.reading or "every link"
+            default = f", {rule.threshold:g} without one" if rule.threshold is not None else ""
+            return f"{what}: the vessel's budget{default}"
         units = {"overdue": "periods", "battery": "V", "endurance": "h"}
         return f"{rule.threshold:g} {units[rule.kind]}" if rule.threshold is not None else ""
 

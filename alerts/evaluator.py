@@ -8,7 +8,8 @@ A pass reads only what changed, in a handful of bulk queries whatever the fleet'
 4. the fixes *received* since the previous pass, for battery, reading and fence rules;
 5. the hourly battery means of the last two days (the track overview's buckets), only for
    vessels with an endurance rule and only when the hour has rolled over since last computed;
-6. the commands that ended since the previous pass, for command rules.
+6. the commands that ended since the previous pass, for command rules;
+7. today's link spending (links.LinkDay), for budget rules.
 
 Then each rule runs its observations through alerts/rules.py's state machine per vessel, in
 time order, opening and resolving episodes through alerts/services/alerts.py (which queue the
@@ -49,6 +50,7 @@ from django.db import transaction
 from django.utils import timezone
 
 from alerts import rules as R
+from alerts.budget import BUDGET_FIELDS, budget_limit, spent_today
 from alerts.endurance import HOUR_S, endurance_hours, hourly_means_from_channels
 from alerts.models import ACTIVE_STATES, Alert, AlertRule, RuleKind
 from alerts.services.alerts import alert_open, alert_resolve
@@ -129,6 +131,8 @@ class Snapshot:
     commands: list[dict[str, Any]]
     # Fence id -> (lat, lon) -> inside it? (judge_fence: shared by the rules on one fence).
     inside: dict[int, dict[tuple[float, float], bool]] = field(default_factory=dict)
+    # (vessel id, transport) -> spent today, in the budget's units (budget rules only).
+    spent: dict[tuple[int, str], float] = field(default_factory=dict)
 
     def scope(self, rule: AlertRule) -> list[int]:
         if rule.vessel_id is not None:
@@ -196,7 +200,7 @@ class Evaluator:
         vessels = {
             v["id"]: v
             for v in Vessel.objects.filter(active=True).values(
-                "id", "slug", "kind", "telemetry_period_s", "last_seen_at"
+                "id", "slug", "kind", "telemetry_period_s", "last_seen_at", *BUDGET_FIELDS.values()
             )
         }
         by_kind: dict[str, list[int]] = defaultdict(list)
@@ -213,7 +217,8 @@ class Evaluator:
                 for c in SensorChannel.objects.values("key", "minimum", "maximum")
             }
         commands = self.ended_commands() if RuleKind.COMMAND in kinds else []
-        return Snapshot(now, vessels, by_kind, active, fixes, channels, commands)
+        spent = spent_today(now) if RuleKind.BUDGET in kinds else {}
+        return Snapshot(now, vessels, by_kind, active, fixes, channels, commands, spent=spent)
 
     def new_fixes(self) -> dict[int, list[tuple[Any, ...]]]:
         """Fixes received since the last pass (less the overlap), not judged yet, per vessel in
@@ -414,6 +419,19 @@ class Evaluator:
             self.hourly[v] = (hour, means)
             self.estimates.pop(v, None)
         return {v: self.hourly[v][1] for v in vessel_ids}
+
+    def judge_budget(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
+        """One episode per vessel and transport (its subject) over today's budget."""
+        transports = [rule.reading] if rule.reading else list(BUDGET_FIELDS)
+        for vessel_id in snap.scope(rule):
+            for transport in (t for t in transports if t in BUDGET_FIELDS):
+                limit = budget_limit(snap.vessels[vessel_id], transport, rule.threshold)
+                spent = snap.spent.get((vessel_id, transport), 0.0)
+                verdict = R.budget(spent, limit)
+                if ep.changes(vessel_id, verdict, subject=transport):
+                    unit = R.BUDGET_UNITS[transport]
+                    detail = f"{transport}: {spent:g} {unit} today, over the budget of {limit:g}"
+                    ep.observe(vessel_id, verdict, subject=transport, value=spent, detail=detail)
 
     def judge_command(self, rule: AlertRule, snap: Snapshot, ep: Episodes) -> None:
         """A failed or expired command opens an episode of its own (subject: its uid), once

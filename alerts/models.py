@@ -16,6 +16,7 @@ class RuleKind(models.TextChoices):
     ENDURANCE = "endurance", "Battery endurance below N hours"
     FENCE = "fence", "Outside an inclusion fence or inside an exclusion fence"
     COMMAND = "command", "Command failed or expired"
+    BUDGET = "budget", "Link budget crossed (SBD credits, SMS, HTTP kB a day)"
 
 
 class ChannelKind(models.TextChoices):
@@ -65,9 +66,15 @@ class AlertRule(models.Model):
     threshold = models.FloatField(
         null=True,
         blank=True,
-        help_text="Periods for overdue, volts for battery, hours for endurance.",
+        help_text="Periods for overdue, volts for battery, hours for endurance; for budget, "
+        "the daily budget of a vessel that has none of its own.",
     )
-    reading = models.CharField(max_length=50, blank=True, help_text="Reading key, for reading.")
+    reading = models.CharField(
+        max_length=50,
+        blank=True,
+        help_text="Reading key, for reading; for budget, one transport (sbd, sms, http) or "
+        "empty for all three.",
+    )
     minimum = models.FloatField(null=True, blank=True, help_text="For reading.")
     maximum = models.FloatField(null=True, blank=True, help_text="For reading.")
     fence = models.ForeignKey(

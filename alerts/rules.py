@@ -234,5 +234,23 @@ def command(status: str) -> Verdict:
     return HOLDS if status in COMMAND_BAD_ENDS else KEEP
 
 
+# Budget -----------------------------------------------------------------------------------
+
+# The transports a budget rule watches, and what each one's budget counts a UTC day.
+BUDGET_UNITS = {"sbd": "credits", "sms": "SMS segments", "http": "kB"}
+
+
+def budget(spent: float, limit: float | None) -> Verdict:
+    """Holds once today's spending on a link is over its daily budget; clears when it is not.
+
+    Spending only grows within a UTC day, so the hysteresis is the day itself: an episode
+    opened at the crossing stays open until the next UTC day starts from zero, or until the
+    budget is raised above what was spent (or removed: no budget clears). One episode per
+    crossing, never one per message."""
+    if limit is None or not is_number(limit) or not is_number(spent):
+        return CLEARS
+    return HOLDS if spent > limit else CLEARS
+
+
 def is_number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)

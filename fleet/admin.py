@@ -26,6 +26,7 @@ from commands.admin import CommandAdmin, status_badge
 from commands.errors import CommandError
 from commands.models import Command, Source
 from commands.services import mission_send, mission_send_problems
+from links.display import links_html
 from sms.models import SmsMessage
 from telemetry.admin import channel_labels, readings_html
 from telemetry.models import Fix
@@ -41,13 +42,14 @@ RECENT_ROWS = 15
 class FleetVesselAdmin(VesselAdmin):
     readonly_fields = [
         *VesselAdmin.readonly_fields, "open_alerts", "battery_endurance", "recent_fixes",
-        "recent_commands",
+        "recent_commands", "links",
     ]  # fmt: skip
     list_display = [*VesselAdmin.list_display[:4], "alerts_shown", *VesselAdmin.list_display[4:]]
     fieldsets = [
         VesselAdmin.fieldsets[0],
         ("Open alerts", {"fields": ["open_alerts", "battery_endurance"]}),
         *VesselAdmin.fieldsets[1:],
+        ("Links", {"fields": ["links"]}),
         ("Recent activity", {"fields": ["recent_fixes", "recent_commands"]}),
     ]
 
@@ -103,6 +105,11 @@ class FleetVesselAdmin(VesselAdmin):
         if vessel.pk is None:
             return "–"
         return endurance_text(vessel_endurance_hours(vessel=vessel))
+
+    @admin.display(description="links")
+    def links(self, vessel: Vessel) -> str:
+        """What each transport carried and cost (links app)."""
+        return "–" if vessel.pk is None else links_html(vessel.pk)
 
     class Media:
         css = {"all": ["commands/status.css"]}  # the recent commands' status badges

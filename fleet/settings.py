@@ -195,12 +195,15 @@ INSTALLED_APPS = [
     "commands",
     "sms",
     "sbd",
+    "links",
     "alerts",
     "fleet",
 ]
 
 MIDDLEWARE = [
-    "vessels.middleware.BoatApiSlimMiddleware",
+    # Trims the boat API's answers (vessels/middleware.py) and counts their bytes per vessel
+    # as answered (links/http.py): outermost.
+    "links.http.BoatApiMiddleware",
     "fleet.middleware.RejectNulMiddleware",
     "fleet.middleware.DatabaseUnavailableMiddleware",
     "django.middleware.security.SecurityMiddleware",
@@ -452,6 +455,13 @@ SBD_HTTP_TIMEOUT_S = env_float("SBD_HTTP_TIMEOUT_S", 10.0)
 SBD_MT_MAX_ATTEMPTS = env_int("SBD_MT_MAX_ATTEMPTS", 5)
 if SBD_HTTP_TIMEOUT_S <= 0 or SBD_MT_MAX_ATTEMPTS < 1:
     raise ValueError("SBD_HTTP_TIMEOUT_S must be positive and SBD_MT_MAX_ATTEMPTS 1 or more")
+
+# Link accounting (links app): the boat API's HTTP counts are kept in each worker's memory and
+# written at most this often (seconds; 0: after every response) and at exit. A worker killed
+# hard loses at most this many seconds of HTTP counts.
+LINK_FLUSH_S = env_float("LINK_FLUSH_S", 10.0)
+if LINK_FLUSH_S < 0:
+    raise ValueError("LINK_FLUSH_S must be 0 or more")
 
 # Outgoing e-mail (Django's mail settings): alert notifications on e-mail channels.
 EMAIL_BACKEND = (

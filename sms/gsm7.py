@@ -95,3 +95,22 @@ def decode(data: bytes) -> str:
     if escaped:
         out.append(" ")
     return "".join(out)
+
+
+# A long SMS is sent as segments, each losing a 6-byte header (TS 23.040 §9.2.3.24.1):
+# 153 septets a segment in GSM-7, 67 UTF-16 units in UCS-2 (70 alone).
+UCS2_UNITS = 70
+SEGMENT_SEPTETS = 153
+SEGMENT_UCS2_UNITS = 67
+
+
+def on_air(text: str) -> tuple[int, int]:
+    """(user-data bytes, segments) ``text`` costs as an SMS: GSM-7 septets packed 8 to 7 bytes
+    when the alphabet carries it, else UCS-2 (two bytes per UTF-16 unit). An empty SMS is
+    one segment of no bytes."""
+    if is_gsm7(text):
+        n = septets(text)
+        nbytes = -(-n * 7 // 8)
+        return nbytes, 1 if n <= SMS_SEPTETS else -(-n // SEGMENT_SEPTETS)
+    units = len(text.encode("utf-16-le")) // 2
+    return units * 2, 1 if units <= UCS2_UNITS else -(-units // SEGMENT_UCS2_UNITS)

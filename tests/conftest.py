@@ -47,6 +47,19 @@ def _fast_password_hashing(settings: Any) -> None:
     settings.PASSWORD_HASHERS = ["django.contrib.auth.hashers.MD5PasswordHasher"]
 
 
+@pytest.fixture(autouse=True)
+def _link_tally(settings: Any) -> Any:
+    # The boat API's HTTP counts wait in the process (links.http): no test's request writes
+    # another test's counts, or adds a timed flush to a test counting its queries. Tests of
+    # the counting set LINK_FLUSH_S = 0.
+    from links.http import TALLY
+
+    settings.LINK_FLUSH_S = 1e9
+    TALLY.clear()
+    yield
+    TALLY.clear()
+
+
 @pytest.fixture
 def vessel_a(db: None) -> Vessel:
     return vessel_create(slug="spab", name="SPAB", kind="mavlink", telemetry_period_s=10)

@@ -126,6 +126,10 @@ class VesselAdmin(admin.ModelAdmin):
         ),
         ("Keys", {"fields": ["issue_key_link"]}),
         ("Compact telemetry", {"fields": ["compact_channels"], "classes": ["collapse"]}),
+        (
+            "Link budgets",
+            {"fields": ["sbd_daily_credit_budget", "sms_daily_budget", "http_daily_budget_kb"]},
+        ),
         ("Activity", {"fields": ["activity_links"]}),
     ]
 

@@ -34,13 +34,17 @@ class BoatApiSlimMiddleware:
     def __call__(self, request: HttpRequest) -> HttpResponse:
         response = self.get_response(request)
         if request.path_info.startswith(BOAT_PREFIXES):
-            for header in _DROP:
-                # A 405 without Allow breaks RFC 9110 §15.5.6: the client needs to know.
-                if header == "Allow" and response.status_code == 405:
-                    continue
-                if header in response.headers:
-                    del response.headers[header]
+            self.trim(response)
         return response
+
+    @staticmethod
+    def trim(response: HttpResponse) -> None:
+        for header in _DROP:
+            # A 405 without Allow breaks RFC 9110 §15.5.6: the client needs to know.
+            if header == "Allow" and response.status_code == 405:
+                continue
+            if header in response.headers:
+                del response.headers[header]
 
 
 class BoatPathsPassBy:

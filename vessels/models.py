@@ -83,6 +83,28 @@ class Vessel(models.Model):
         help_text="The IMEI of the vessel's Iridium SBD modem (15 digits): its messages "
         "through the SBD provider are filed under this vessel. Empty: none.",
     )
+    # Daily budgets per link (links app, alert rule kind "budget"): crossing one opens an alert.
+    sbd_daily_credit_budget = models.PositiveIntegerField(
+        "SBD credits a day",
+        null=True,
+        blank=True,
+        help_text="Iridium SBD credits (50 bytes each, in and out) a UTC day; crossing it "
+        "raises a budget alert. Empty: no budget.",
+    )
+    sms_daily_budget = models.PositiveIntegerField(
+        "SMS a day",
+        null=True,
+        blank=True,
+        help_text="SMS segments (in and out) a UTC day; crossing it raises a budget alert. "
+        "Empty: no budget.",
+    )
+    http_daily_budget_kb = models.PositiveIntegerField(
+        "HTTP kB a day",
+        null=True,
+        blank=True,
+        help_text="Boat API kilobytes (1000 bytes, in and out) a UTC day; crossing it raises "
+        "a budget alert. Empty: no budget.",
+    )
     # Denormalised newest fix for the fleet list and map: {time, lat, lon, heading_deg, ...}.
     last_fix = models.JSONField(null=True, blank=True, editable=False)
     last_fix_at = models.DateTimeField(null=True, blank=True, editable=False)

@@ -25,6 +25,7 @@ from django.core.exceptions import ValidationError
 from django.db import transaction
 
 from alerts.models import AlertRule, NotificationChannel, RuleKind
+from alerts.rules import BUDGET_UNITS
 from audit.services import audit_changes, audit_record, audit_snapshot
 from telemetry.models import SensorChannel
 
@@ -59,10 +60,19 @@ def rule_problems(rule: AlertRule) -> dict[str, list[str]]:
             say("threshold", f"a {kind} rule needs a threshold ({THRESHOLD_MEANS[kind]})")
         elif rule.threshold <= 0:
             say("threshold", f"must be above 0 ({THRESHOLD_MEANS[kind]})")
+    elif kind == RuleKind.BUDGET:
+        if rule.threshold is not None and rule.threshold <= 0:
+            say("threshold", "must be above 0 (the budget of a vessel without its own)")
     elif rule.threshold is not None:
         say("threshold", f"a {kind} rule has no threshold")
     if kind == RuleKind.READING:
         _reading_problems(rule, say)
+    elif kind == RuleKind.BUDGET:
+        if rule.reading and rule.reading not in BUDGET_UNITS:
+            say("reading", f"a budget rule's transport is one of {', '.join(BUDGET_UNITS)}")
+        for field in ("minimum", "maximum"):
+            if getattr(rule, field) is not None:
+                say(field, f"only a reading rule has a {field}")
     else:
         for field in ("reading", "minimum", "maximum"):
             if getattr(rule, field) not in (None, ""):

@@ -9,10 +9,12 @@ from dataclasses import dataclass
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
+from links.models import Transport
+from links.services import link_count
 from sbd.errors import UnknownImei
 from sbd.models import Direction, SbdMessage, Status
 from sbd.payload import PayloadError, fixes_from_payload, iridium_fix
-from sbd.rockblock import Delivery
+from sbd.rockblock import Delivery, credits
 from telemetry.services import fix_ingest
 from vessels.models import Vessel
 
@@ -92,4 +94,7 @@ def sbd_receive(*, delivery: Delivery, now: dt.datetime | None = None) -> Receiv
             logger.warning("SBD %s MOMSN %d: %s", delivery.imei, delivery.momsn, message.detail)
         message.fixes = result.accepted
         message.save(update_fields=["fixes", "detail"])
+        link_count(vessel_id=vessel.pk, transport=Transport.SBD, at=now, contact=True,
+                   messages_in=1, bytes_in=message.bytes, credits=credits(message.bytes),
+                   fixes_in=result.accepted)  # fmt: skip
     return Received(message=message, fixes=result.accepted)

@@ -12,12 +12,16 @@ import datetime as dt
 import logging
 
 from django.conf import settings
+from django.db import transaction
 from django.utils import timezone
 
 from commands.models import Command
 from edge_client.contract import compact_command
+from links.models import Transport
+from links.services import link_count
 from sbd.errors import MtError, SbdError
 from sbd.models import Direction, SbdMessage, Status
+from sbd.rockblock import credits
 from sbd.transport import MtTransport, configured_transport
 
 logger = logging.getLogger(__name__)
@@ -69,9 +73,20 @@ def _send_one(message: SbdMessage, transport: MtTransport, now: dt.datetime) -> 
         return False
     message.status, message.provider_ref, message.sent_at = Status.SENT, ref[:40], now
     message.detail = ""
-    SbdMessage.objects.filter(pk=message.pk).update(
-        status=Status.SENT, provider_ref=message.provider_ref, sent_at=now, detail=""
-    )
+    # Paid once the provider takes it (a queued or failed message costs nothing): counted
+    # with the write that says so.
+    with transaction.atomic():
+        SbdMessage.objects.filter(pk=message.pk).update(
+            status=Status.SENT, provider_ref=message.provider_ref, sent_at=now, detail=""
+        )
+        link_count(
+            vessel_id=message.vessel_id,
+            transport=Transport.SBD,
+            at=now,
+            messages_out=1,
+            bytes_out=message.bytes,
+            credits=credits(message.bytes),
+        )
     return True
 
 

@@ -19,8 +19,11 @@ from audit.context import Origin, audit_origin
 from audit.models import ActorKind
 from commands.models import Command
 from edge_client.contract.batch import BatchAnswer
+from links.models import Transport
+from links.services import link_count
 from sms.errors import InvalidNumber
-from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SmsMessage
+from sms.gsm7 import on_air
+from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SendStatus, SmsMessage
 from sms.services._common import DETAIL_MAX, TEXT_STORE_MAX, _save_checked
 from sms.services.numbers import (
     _as_audited,
@@ -192,6 +195,21 @@ def sms_log_check(entry: Mapping[str, Any], *, now: dt.datetime) -> None:
         raise ValidationError({"outcome": ["only an incoming SMS has one"]})
 
 
+def _count_on_link(vessel: Vessel, entry: Mapping[str, Any]) -> None:
+    """A newly stored entry on the vessel's SMS link (links app), on the UTC day it went over
+    the air: the text's bytes as sent (GSM-7 packed or UCS-2) and its segments as credits. An
+    outgoing SMS costs only once the modem sent it."""
+    nbytes, segments = on_air(entry.get("text", ""))
+    if entry["direction"] == Direction.IN:
+        at = entry.get("received_at") or entry.get("modem_timestamp") or entry["created_at"]
+        link_count(vessel_id=vessel.pk, transport=Transport.SMS, at=at, contact=True,
+                   messages_in=1, bytes_in=nbytes, credits=segments)  # fmt: skip
+    elif entry.get("status") == SendStatus.SENT:
+        at = entry.get("sent_at") or entry["created_at"]
+        link_count(vessel_id=vessel.pk, transport=Transport.SMS, at=at,
+                   messages_out=1, bytes_out=nbytes, credits=segments)  # fmt: skip
+
+
 def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
     """Store one entry of a vessel's uploaded SMS log (read by the boat API, checked by
     :func:`sms_log_check`); False if the vessel sent it before (same ``id``). Raises
@@ -234,6 +252,7 @@ def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:
             uids = entry.get("commands") or []
             if uids:
                 message.commands.set(Command.objects.filter(vessel=vessel, uid__in=uids))
+            _count_on_link(vessel, entry)
     except IntegrityError:
         if SmsMessage.objects.filter(vessel=vessel, origin_id=origin).exists():
             return False  # the same upload racing itself

@@ -101,6 +101,7 @@ class TelemetryView(BoatView):
             records=records_from_body(request.data),
             key_id=request.auth.pk,
         )
+        request._request.link_fixes_in = result.accepted  # links.http counts them
         return Response(result.as_dict())
 
     def dispatch(self, request: HttpRequest, *args: Any, **kwargs: Any) -> HttpResponseBase:
@@ -125,6 +126,7 @@ class TelemetryView(BoatView):
             result = fix_ingest(
                 vessel=self.vessel(drf_request), records=records, key_id=drf_request.auth.pk
             )
+            request.link_fixes_in = result.accepted  # type: ignore[attr-defined]
             response: HttpResponseBase = HttpResponse(
                 JSONRenderer().render(result.as_dict()), content_type=JSONRenderer.media_type
             )
@@ -191,6 +193,7 @@ class LegacyDataView(LegacyBoatView):
                 status=status.HTTP_400_BAD_REQUEST,
             )
         result = fix_ingest(vessel=self.vessel(request), records=records, legacy=True)
+        request._request.link_fixes_in = result.accepted  # links.http counts them
         message = (
             f"accepted {result.accepted}, duplicates {result.duplicates}, "
             f"rejected {len(result.rejected)}"
