@@ -6,7 +6,8 @@ Threads and what each owns:
 - ``executor`` (:class:`Executor`): runs commands (arming can take a minute; a mission upload
   several seconds) without holding up telemetry;
 - ``uplink``: the only thread that talks to the server: sends queued acks, then fixes in
-  batches, then polls for commands. A slow or absent server delays only this thread;
+  batches, then polls for commands unless a telemetry answer already carried their list (one
+  exchange per period). A slow or absent server delays only this thread;
 - the caller's thread (:meth:`EdgeClient.run`): every telemetry period puts a fix into the
   outbox, pings the systemd watchdog while the other threads are alive, and watches the stop
   flag that SIGTERM sets.
@@ -26,6 +27,7 @@ from collections.abc import Callable
 
 from edge_client import systemd
 from edge_client.config import Config
+from edge_client.contract import exchange
 from edge_client.contract.backoff import after_failures
 from edge_client.contract.status import Status
 from edge_client.executor import Executor
@@ -94,10 +96,13 @@ class EdgeClient:
         self._kick = threading.Event()
         self.executor = Executor(link, outbox, config.commands, on_ack=self._kick.set)
         self.etag: str | None = None
+        self.exchange = config.commands.exchange
         self.server_ok: bool | None = None
         self._uplink: threading.Thread | None = None
         self._failures = 0
         self._next_poll = 0.0
+        # This round's telemetry answer said the command list is current (exchange.py).
+        self._list_current = False
 
     # -- the main thread ----------------------------------------------------------------------
 
@@ -192,12 +197,19 @@ class EdgeClient:
             self._kick.wait(wait)
 
     def uplink_once(self, now: float) -> float:
-        """One round: acks, fixes, poll if due. Returns how long to wait before the next round."""
+        """One round: acks, fixes, poll if due. Returns how long to wait before the next round.
+
+        A round whose telemetry answer carried the command list's state (one exchange per
+        period, docs/api.md) polls not, and puts the next poll a period off: a boat that
+        reports every period never polls; one with nothing to send polls as ever."""
         period = self.config.commands.poll_period_s
+        self._list_current = False
         try:
             self.flush_acks()
             self.flush_fixes()
-            if now >= self._next_poll:
+            if self._list_current:
+                self._next_poll = now + period
+            elif now >= self._next_poll:
                 self.poll()
                 self._next_poll = now + period
         except TransportError as exc:
@@ -236,8 +248,10 @@ class EdgeClient:
     def _send_fixes(self, items: list) -> bool:
         """POST one batch; True if every fix in it was settled (so the caller may go on)."""
         ids = [i.id for i in items]
+        body = {"fixes": [i.body for i in items]}
+        headers = {exchange.HEADER: exchange.held_etag(self.etag)} if self.exchange else None
         try:
-            response = self.transport.post_json(TELEMETRY_PATH, {"fixes": [i.body for i in items]})
+            response = self.transport.post_json(TELEMETRY_PATH, body, headers)
         except TransportError as exc:
             if exc.status != 400:
                 raise
@@ -252,7 +266,10 @@ class EdgeClient:
                 return True
             half = len(items) // 2
             return self._send_fixes(items[:half]) and self._send_fixes(items[half:])
-        settlement = settle_fix_batch(ids, response.json())
+        answer = response.json()
+        if self.exchange:
+            self._take_exchange(answer)
+        settlement = settle_fix_batch(ids, answer)
         if settlement.keep_reason:
             log.warning("keeping %d fixes: %s", len(ids), settlement.keep_reason)
             return False
@@ -263,6 +280,18 @@ class EdgeClient:
         self.outbox.remove(settlement.remove)
         return True
 
+    def _take_exchange(self, answer: object) -> None:
+        """The command list a telemetry answer carries, as a poll's: an answer without one
+        (an older server) leaves the poll to do it."""
+        found = exchange.list_in_answer(answer)
+        if found is None:
+            return
+        etag, commands = found
+        if commands is not None:
+            self._take_commands(commands)
+        self.etag = etag
+        self._list_current = True
+
     def poll(self) -> None:
         response = self.transport.get(COMMANDS_PATH, self.etag)
         if response.status == 304:
@@ -271,7 +300,10 @@ class EdgeClient:
         commands = data.get("commands") if isinstance(data, dict) else None
         if not isinstance(commands, list):
             raise TransportError("commands answer has no commands list")
+        self._take_commands(commands)
+        self.etag = response.etag
+
+    def _take_commands(self, commands: list) -> None:
         new = self.executor.offer(commands)
         if new:
             log.info("%d new command(s) from the server", new)
-        self.etag = response.etag
