@@ -189,6 +189,8 @@ def test_the_answer_carries_no_browser_headers(
     response = post(boat_a, make_fix, **{HEADER: exchange.NONE_HELD})
     for header in BROWSER_HEADERS:
         assert header not in response.headers, header
+    # What is left is what a boat reads (the WSGI server adds its Date and Connection).
+    assert set(response.headers) == {"Content-Type", "Content-Length"}
 
 
 def test_the_legacy_data_cgi_ignores_the_header(
