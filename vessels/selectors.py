@@ -31,8 +31,7 @@ def vessel_by_slug(slug: str) -> Vessel:
 def vessel_commands_version(vessel_id: int) -> int:
     """The vessel's commands_version as stored now: a vessel from the recent key lookups
     (vessels.auth.key_lookup_recent) may carry one up to a minute old."""
-    version = Vessel.objects.filter(pk=vessel_id).values_list("commands_version", flat=True).first()
-    return version or 0
+    return sql.commands_version(vessel_id)
 
 
 def vessel_key_by_hash(key_hash: str) -> VesselKey | None:
