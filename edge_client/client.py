@@ -41,6 +41,8 @@ TELEMETRY_PATH = "/api/v1/boat/telemetry/"
 COMMANDS_PATH = "/api/v1/boat/commands/"
 ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
 MAX_OUTAGE_BACKOFF_S = 60.0
+# A round put off for the next fix runs this long after the fix is due (its sample and commit).
+FIX_GRACE_S = 0.2
 # Ack answers that will never change (docs/api.md#errors): unknown/other vessel's command, illegal
 # transition (cancelled meanwhile), malformed.
 ACK_DROP_STATUSES = frozenset({400, 404, 409})
@@ -103,6 +105,10 @@ class EdgeClient:
         self._next_poll = 0.0
         # This round's telemetry answer said the command list is current (exchange.py).
         self._list_current = False
+        # When the last fix went into the outbox (monotonic), and whether the poll now due was
+        # already put off once to wait for the next one.
+        self._sampled_at: float | None = None
+        self._waited_for_fix = False
 
     # -- the main thread ----------------------------------------------------------------------
 
@@ -156,6 +162,7 @@ class EdgeClient:
         if evicted_total:
             fix["readings"]["edge_evicted_fixes"] = evicted_total  # reported to the shore
         self.outbox.add_fix(fix)
+        self._sampled_at = time.monotonic()
         return False
 
     def healthy(self) -> bool:
@@ -209,9 +216,14 @@ class EdgeClient:
             self.flush_fixes()
             if self._list_current:
                 self._next_poll = now + period
+                self._waited_for_fix = False
+            elif now >= self._next_poll and (fix_at := self._fix_coming(now)) is not None:
+                self._next_poll = fix_at
+                self._waited_for_fix = True
             elif now >= self._next_poll:
                 self.poll()
                 self._next_poll = now + period
+                self._waited_for_fix = False
         except TransportError as exc:
             self._failures += 1
             self._report(False, exc)
@@ -219,6 +231,21 @@ class EdgeClient:
         self._failures = 0
         self._report(True)
         return max(0.05, min(period, self._next_poll - time.monotonic()))
+
+    def _fix_coming(self, now: float) -> float | None:
+        """When to run the round instead of polling now, or None to poll.
+
+        A boat reporting every round whose round came just before its next fix (the sampling
+        and the uplink run on clocks of their own; at equal periods they drift past each
+        other) waits for that fix, once, rather than poll: the fix's exchange brings the list.
+        Only while fixes come at least once a poll period, so the list is never older than a
+        poll period and one telemetry period."""
+        telemetry = self.config.telemetry.period_s
+        if not self.exchange or self._waited_for_fix or self._sampled_at is None:
+            return None
+        if telemetry > self.config.commands.poll_period_s or now - self._sampled_at >= telemetry:
+            return None
+        return self._sampled_at + telemetry + FIX_GRACE_S
 
     def _report(self, ok: bool, exc: TransportError | None = None) -> None:
         if ok and self.server_ok is not True:

@@ -301,3 +301,25 @@ def test_with_the_exchange_off_no_header_is_sent(client, server):
     client.uplink_once(0.0)
     assert exchange_tags(server) == [None]
     assert polls(server) == 1
+
+
+def test_a_round_just_before_the_next_fix_waits_for_it_once_rather_than_poll(client, server):
+    """Sampling and uplink on clocks of their own (10 s each by default): a round that comes
+    just before its fix puts itself after the fix, so the exchange still saves the poll."""
+    server.respond = exchanging
+    client.outbox.add_fix(fix(1))
+    client.uplink_once(0.0)  # an exchange: the next round is due at 10
+    client._sampled_at = 0.1  # the fix of 0.1 went; the next one comes at 10.1
+    assert client.uplink_once(10.0) == pytest.approx(0.3, abs=0.3)  # at 10.3, not a poll now
+    assert polls(server) == 0 and client._next_poll == pytest.approx(10.3)
+    client.outbox.add_fix(fix(2))
+    client._sampled_at = 10.1
+    client.uplink_once(10.3)
+    assert polls(server) == 0 and len(telemetry_posts(server)) == 2
+    client.uplink_once(20.3)  # no fix since 10.1 (the autopilot went silent): a poll
+    assert polls(server) == 1
+    client._sampled_at = 20.5  # a fix due at 30.5...
+    client.uplink_once(30.3)  # ...so this round waits for it
+    assert polls(server) == 1
+    client.uplink_once(30.7)  # it is not there: a poll, never a second wait in a row
+    assert polls(server) == 2

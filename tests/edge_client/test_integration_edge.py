@@ -291,13 +291,9 @@ def test_a_boat_reporting_every_round_never_polls_and_gets_a_command_within_a_ro
     proxy = TcpProxy(("127.0.0.1", urlsplit(live_server.url).port))
     rig.sim()
     rig.client(
-        f"http://127.0.0.1:{proxy.port}",
-        key,
-        "--poll-period",
-        str(round_s),
-        "--config",
-        str(config),
-    )
+        f"http://127.0.0.1:{proxy.port}", key, "--poll-period", str(round_s),
+        "--telemetry-period", str(round_s), "--config", str(config),
+    )  # fmt: skip
     try:
         wait_until(lambda: Fix.objects.filter(vessel=vessel).count() >= 3, 20, "fixes flowing")
         time.sleep(round_s)  # the round under way when the first fix landed is over
