@@ -409,7 +409,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         runs = []
-        for poll_s, cadence in ((2.0, "uplink 2 s (thesis)"), (10.0, "uplink 10 s (default)")):
+        for poll_s, cadence in ((2.0, "uplink 2 s (as SPAB)"), (10.0, "uplink 10 s (default)")):
             if args.before:
                 root = edge_client_of(args.before, Path(tmp) / "before")
                 runs.append(EdgeRun(f"{args.before}: {cadence}", poll_s, Path(tmp), root=root))
