@@ -14,14 +14,16 @@ lint:
 	.venv/bin/ruff check . && .venv/bin/ruff format --check .
 	.venv/bin/python manage.py makemigrations --check --dry-run
 
-bench:           ## server, maps, Level 2, SMS, bridge, edge client, notification, retention and alerts benchmarks, each against an in-run baseline
+bench:           ## server, maps, Level 2, compact fixes, SMS, bridge, edge client, notification, SBD webhook, retention and alerts benchmarks, each against an in-run baseline
 	.venv/bin/python -m bench.server
 	.venv/bin/python -m bench.maps --postgres
 	.venv/bin/python -m bench.level2
+	.venv/bin/python -m bench.compact
 	.venv/bin/python -m bench.sms
 	.venv/bin/python -m bench.bridge
 	.venv/bin/python -m bench.wg_bridge
 	.venv/bin/python -m bench.edge
 	.venv/bin/python -m bench.notify
+	.venv/bin/python -m bench.sbd
 	.venv/bin/python -m bench.retention --postgres
 	.venv/bin/python -m bench.alerts --postgres

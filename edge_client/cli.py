@@ -1,5 +1,8 @@
 """Command line: ``python -m edge_client [run|check] --config PATH [overrides]``.
 
+``python -m edge_client compact encode|decode FILE`` is the compact fix codec's tool
+(edge_client/compact_cli.py).
+
 ``run`` (the default) runs the client until SIGTERM/SIGINT. ``check`` tests the autopilot link
 and the server link once and says which one fails. Exit status: 0 ok, 1 failure, 2 bad config.
 """
@@ -64,6 +67,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
+    if args_list[:1] == ["compact"]:  # a tool, not the client: no configuration
+        from edge_client.compact_cli import main as compact_main
+
+        return compact_main(args_list[1:])
     if not args_list or (
         args_list[0] not in COMMANDS and args_list[0] not in ("-h", "--help", "--version")
     ):

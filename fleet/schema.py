@@ -95,7 +95,9 @@ OTHER_ENTRY = {"description": "anything else: refused alone, by index, in `rejec
 def describe_batches(result: dict[str, Any], limits: dict[str, tuple[str, int, bool]]) -> None:
     schemas = result.get("components", {}).get("schemas", {})
     for path, (field, limit, bare_list) in limits.items():
-        body = result["paths"][path]["post"]["requestBody"]["content"]["application/json"]
+        request = result["paths"][path]["post"]["requestBody"]
+        request["required"] = True  # drf-spectacular leaves it out beside a binary body
+        body = request["content"]["application/json"]
         batch = schemas[body["schema"]["$ref"].rsplit("/", 1)[1]]
         entries = batch["properties"][field]
         entries["items"] = {"anyOf": [entries["items"], OTHER_ENTRY]}

@@ -194,6 +194,7 @@ INSTALLED_APPS = [
     "telemetry",
     "commands",
     "sms",
+    "sbd",
     "alerts",
     "fleet",
 ]
@@ -435,6 +436,22 @@ if SMS_DEFAULT_REGION not in phonenumbers.SUPPORTED_REGIONS:
     )
 SMS_RATE_LIMIT = env_int("SMS_RATE_LIMIT", 10)
 SMS_RATE_WINDOW_S = env_int("SMS_RATE_WINDOW_S", 10 * 60)
+
+# Iridium SBD through RockBLOCK (sbd app). In: the delivery webhook POST /api/v1/sbd/rockblock/
+# trusts a post only if its JWT verifies against the provider's public key in this PEM file;
+# empty: the webhook refuses everything (503). Out: commands as mobile-terminated messages
+# through the MT API with this account; no user name: nothing is sent (they stay queued).
+SBD_ROCKBLOCK_PUBLIC_KEY_FILE = os.environ.get("SBD_ROCKBLOCK_PUBLIC_KEY_FILE", "").strip()
+SBD_ROCKBLOCK_MT_URL = (
+    os.environ.get("SBD_ROCKBLOCK_MT_URL", "").strip() or "https://rockblock.rock7.com/rockblock/MT"
+)
+SBD_ROCKBLOCK_USERNAME = os.environ.get("SBD_ROCKBLOCK_USERNAME", "").strip()
+SBD_ROCKBLOCK_PASSWORD = os.environ.get("SBD_ROCKBLOCK_PASSWORD", "")
+# Seconds the MT API has to answer; tries of one message before it is given up.
+SBD_HTTP_TIMEOUT_S = env_float("SBD_HTTP_TIMEOUT_S", 10.0)
+SBD_MT_MAX_ATTEMPTS = env_int("SBD_MT_MAX_ATTEMPTS", 5)
+if SBD_HTTP_TIMEOUT_S <= 0 or SBD_MT_MAX_ATTEMPTS < 1:
+    raise ValueError("SBD_HTTP_TIMEOUT_S must be positive and SBD_MT_MAX_ATTEMPTS 1 or more")
 
 # Outgoing e-mail (Django's mail settings): alert notifications on e-mail channels.
 EMAIL_BACKEND = (

@@ -10,6 +10,7 @@ from commands.api import urls as command_urls
 from commands.api.boat import commands_exchange
 from fleet.console_api import FleetAlertsView, FleetOverlaysView
 from fleet.schema import SchemaView
+from sbd.api import urls as sbd_urls
 from sms.api import urls as sms_urls
 from telemetry.api import urls as telemetry_urls
 from telemetry.api.boat import TelemetryView
@@ -29,6 +30,7 @@ api_v1 = [
     path("", include(telemetry_urls.urlpatterns)),
     path("", include(command_urls.urlpatterns)),
     path("", include(sms_urls.urlpatterns)),
+    path("", include(sbd_urls.urlpatterns)),
     path("", include(alert_urls.urlpatterns)),
     path("fleet/overlays/", FleetOverlaysView.as_view(), name="fleet-overlays"),
     path("", include("audit.api.urls")),

@@ -30,7 +30,10 @@ TEXT_SHOWN = 160  # one SMS
 class AuthorisedNumberForm(forms.ModelForm):
     class Meta:
         model = AuthorisedNumber
-        fields = ["number", "name", "vessels", "role", "active", "expires_at", "notes"]
+        fields = [
+            "number", "name", "vessels", "role", "active", "expires_at", "receives_positions",
+            "notes",
+        ]  # fmt: skip
 
     def clean_number(self) -> str:
         # Normalised before the unique check, so "0412 345 678" finds "+61412345678".
@@ -43,8 +46,10 @@ class AuthorisedNumberForm(forms.ModelForm):
 @admin.register(AuthorisedNumber)
 class AuthorisedNumberAdmin(admin.ModelAdmin):
     form = AuthorisedNumberForm
-    list_display = ["number", "name", "role", "vessel_list", "active", "expires_at"]
-    list_filter = ["role", "active", "vessels"]
+    list_display = [
+        "number", "name", "role", "vessel_list", "active", "expires_at", "receives_positions",
+    ]  # fmt: skip
+    list_filter = ["role", "active", "receives_positions", "vessels"]
     search_fields = ["number", "name", "notes"]
     filter_horizontal = ["vessels"]
     actions = ["deauthorise"]

@@ -31,6 +31,12 @@ class AuthorisedNumber(models.Model):
     role = models.CharField(max_length=10, choices=Role.choices, default=Role.QUERY)
     active = models.BooleanField(default=True)
     expires_at = models.DateTimeField(null=True, blank=True, help_text="Empty: never.")
+    receives_positions = models.BooleanField(
+        "receives positions",
+        default=False,
+        help_text="The Wave Glider bridge texts this number the glider's position on its "
+        "schedule (WG_POSITION_SMS_PERIOD_S), while the number is active.",
+    )
     notes = models.TextField(blank=True)
     created_at = models.DateTimeField(auto_now_add=True)
     updated_at = models.DateTimeField(auto_now=True)

@@ -13,7 +13,7 @@ from django.db.models import Q, QuerySet
 from commands import catalog
 from commands.lifecycle import OPEN, Status
 from commands.models import Command, CommandEvent
-from sms.models import SmsMessage
+from sms.models import AuthorisedNumber, SmsMessage
 from telemetry.models import Fix
 from vessels.models import Vessel
 
@@ -170,3 +170,35 @@ def bridge_sms_after(*, vessel: Vessel, after: int, limit: int) -> list[SmsMessa
         .prefetch_related("commands")
         .order_by("pk")[:limit]
     )
+
+
+# The prefix of a position SMS's delivery_key (sms.services.positions): one per vessel, number
+# and fix.
+POSITION_KEY_PREFIX = "pos:"
+
+
+def bridge_position_recipients(*, vessel: Vessel, now: dt.datetime) -> list[AuthorisedNumber]:
+    """The numbers that get the vessel's position SMS: active, unexpired, flagged."""
+    return list(
+        AuthorisedNumber.objects.filter(vessels=vessel, active=True, receives_positions=True)
+        .filter(Q(expires_at__isnull=True) | Q(expires_at__gt=now))
+        .order_by("number")
+    )
+
+
+def bridge_last_position_sms(*, vessel: Vessel) -> SmsMessage | None:
+    """The vessel's newest position SMS (the schedule's place after a restart)."""
+    return (
+        SmsMessage.objects.filter(
+            vessel=vessel,
+            direction="out",
+            delivery_key__startswith=f"{POSITION_KEY_PREFIX}{vessel.pk}:",
+        )
+        .order_by("-created_at", "-pk")
+        .first()
+    )
+
+
+def bridge_vessel_last_fix(*, vessel: Vessel) -> Vessel:
+    """The vessel's name and last fix, read afresh (the fix batches advance it)."""
+    return Vessel.objects.only("name", "slug", "last_fix", "last_fix_at").get(pk=vessel.pk)

@@ -91,7 +91,7 @@ class VesselAdmin(admin.ModelAdmin):
         "active",
     ]
     list_filter = [StatusFilter, "kind", "active"]
-    search_fields = ["name", "slug"]
+    search_fields = ["name", "slug", "imei"]
     prepopulated_fields = {"slug": ["name"]}
     inlines = [VesselKeyInline]
     readonly_fields = [
@@ -115,6 +115,7 @@ class VesselAdmin(admin.ModelAdmin):
                     "telemetry_period_s",
                     "cruise_speed_mps",
                     "move_to_max_m",
+                    "imei",
                     "notes",
                 ]
             },
@@ -124,6 +125,7 @@ class VesselAdmin(admin.ModelAdmin):
             {"fields": ["status_badge", "last_seen_at", "last_fix_at", "position", "battery"]},
         ),
         ("Keys", {"fields": ["issue_key_link"]}),
+        ("Compact telemetry", {"fields": ["compact_channels"], "classes": ["collapse"]}),
         ("Activity", {"fields": ["activity_links"]}),
     ]
 

@@ -11,7 +11,8 @@ from django.contrib.messages import middleware as messages
 from django.contrib.sessions import middleware as sessions
 from django.http import HttpRequest, HttpResponse
 
-BOAT_PREFIXES = ("/api/v1/boat/", "/spab/")
+# The SBD provider's webhook is a machine's post too (signed, no session): sbd/api/webhook.py.
+BOAT_PREFIXES = ("/api/v1/boat/", "/spab/", "/api/v1/sbd/")
 # Browser-only headers: a boat has no DOM to protect, and each costs bytes on every poll.
 _DROP = (
     "X-Frame-Options",

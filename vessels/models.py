@@ -4,11 +4,12 @@ import datetime as dt
 from typing import Any
 
 from django.core.exceptions import ValidationError
-from django.core.validators import MaxValueValidator, MinValueValidator
+from django.core.validators import MaxValueValidator, MinValueValidator, RegexValidator
 from django.db import models
 from django.db.models import Q
 
 from edge_client.contract import fix as fix_shape
+from edge_client.contract.compact import Channel, CompactError, channels_from
 from edge_client.contract.kinds import MAVLINK, WAVE_GLIDER
 from vessels import fences
 from vessels.fences import FenceError
@@ -24,6 +25,8 @@ from vessels.missions import (
 
 # A vessel silent for this many telemetry periods is overdue (docs/operating.md#the-admin).
 OVERDUE_PERIODS = 3
+# An Iridium modem's IMEI: 15 digits, how the SBD provider names the vessel's modem.
+IMEI_VALIDATOR = RegexValidator(r"^[0-9]{15}\Z", "An IMEI is 15 digits.")
 # Half the Earth's circumference: no two points are farther apart, so no limit needs more.
 MOVE_TO_MAX_LIMIT_M = 20_038_000
 
@@ -60,6 +63,26 @@ class Vessel(models.Model):
         help_text="How far from its last fix a move_to may send it. Empty: the site default "
         "(MOVE_TO_MAX_M); 0: no limit.",
     )
+    # The readings a compact payload carries, by index (edge_client/contract/compact.py): the
+    # boat's configuration lists the same, or its readings are refused, not misread.
+    compact_channels = models.JSONField(
+        "compact channel table",
+        default=list,
+        blank=True,
+        help_text='Readings in compact payloads, in order: [{"name": "humidity_pct", "step": '
+        "0.1}, …]; each value is kept to its step. The boat's configuration must list the same.",
+    )
+    # Null, not blank, when there is none: unique, and many vessels have no Iridium modem.
+    imei = models.CharField(
+        "Iridium IMEI",
+        max_length=15,
+        unique=True,
+        null=True,
+        blank=True,
+        validators=[IMEI_VALIDATOR],
+        help_text="The IMEI of the vessel's Iridium SBD modem (15 digits): its messages "
+        "through the SBD provider are filed under this vessel. Empty: none.",
+    )
     # Denormalised newest fix for the fleet list and map: {time, lat, lon, heading_deg, ...}.
     last_fix = models.JSONField(null=True, blank=True, editable=False)
     last_fix_at = models.DateTimeField(null=True, blank=True, editable=False)
@@ -73,6 +96,19 @@ class Vessel(models.Model):
 
     def __str__(self) -> str:
         return self.name
+
+    def clean(self) -> None:
+        super().clean()
+        try:
+            self.channel_table()
+        except CompactError as exc:
+            raise ValidationError({"compact_channels": str(exc)}) from None
+
+    def channel_table(self) -> list[Channel]:
+        """The compact channel table (CompactError if the stored JSON is not one)."""
+        if not isinstance(self.compact_channels, list):
+            raise CompactError("a channel table is a JSON list")
+        return channels_from(self.compact_channels)
 
     def status(self, now: dt.datetime) -> str:
         """`never seen`, `reporting` or `overdue` (silent for OVERDUE_PERIODS periods)."""

@@ -21,10 +21,21 @@ from vessels.models import Mission, MissionItem, Vessel, VesselKey
 
 
 def vessel_create(
-    *, slug: str, name: str, kind: str = "mavlink", telemetry_period_s: int = 60, notes: str = ""
+    *,
+    slug: str,
+    name: str,
+    kind: str = "mavlink",
+    telemetry_period_s: int = 60,
+    notes: str = "",
+    imei: str | None = None,
 ) -> Vessel:
     vessel = Vessel(
-        slug=slug, name=name, kind=kind, telemetry_period_s=telemetry_period_s, notes=notes
+        slug=slug,
+        name=name,
+        kind=kind,
+        telemetry_period_s=telemetry_period_s,
+        notes=notes,
+        imei=imei or None,
     )
     vessel.full_clean()
     vessel.save()

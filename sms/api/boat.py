@@ -62,6 +62,7 @@ def numbers_wire(vessel: Vessel) -> list[dict[str, Any]]:
             "role": entry.role,
             "active": entry.active,
             "expires_at": entry.expires_at.isoformat() if entry.expires_at else None,
+            "receives_positions": entry.receives_positions,
         }
         for entry in entries
     ]
@@ -82,6 +83,9 @@ _NumberOut = inline_serializer(
         "role": serializers.ChoiceField(Role.choices),
         "active": serializers.BooleanField(),
         "expires_at": serializers.DateTimeField(allow_null=True),
+        "receives_positions": serializers.BooleanField(
+            help_text="the glider's bridge texts it the glider's position on its schedule"
+        ),
     },
 )
 

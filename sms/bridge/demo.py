@@ -12,7 +12,8 @@ would send them, ``<number> <text>``::
 
 and watch the trace: the SMS in, the flagged status reply, the C&C's request, the handover,
 the ACK (``--ack nak``: a NAK, ``cycle``: every code in turn), the SMS out. ``!reset`` and
-``!garbage`` upset the simulated modem. Ctrl-D or Ctrl-C stops it.
+``!garbage`` upset the simulated modem. Ctrl-D or Ctrl-C stops it. ``--position-period 60``
+texts the glider's position to the demo phone each minute (issue 20 §5).
 """
 
 from __future__ import annotations
@@ -42,6 +43,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--ack", choices=sorted(ACKS), default="ack")
     parser.add_argument("--duration", type=float, help="stop after this many seconds")
     parser.add_argument("--all-polls", action="store_true", help="trace every status poll")
+    parser.add_argument(
+        "--position-period",
+        type=float,
+        default=0.0,
+        help="text the position to the demo phone every this many s (0: never; at least 60)",
+    )
     args = parser.parse_args(argv)
 
     # The demo's own database, chosen before Django reads its settings.
@@ -83,7 +90,11 @@ def _run(args: argparse.Namespace) -> int:
     except Vessel.DoesNotExist:
         glider = vessel_create(slug=DEMO_SLUG, name="Demo glider", kind="wave_glider")
     authorised_number_authorise(
-        number=DEMO_NUMBER, vessels=[glider], role="control", name="Demo phone"
+        number=DEMO_NUMBER,
+        vessels=[glider],
+        role="control",
+        name="Demo phone",
+        receives_positions=args.position_period > 0,
     )
 
     # The payload board's stasis data server, stood in for on a free UDP port.
@@ -102,6 +113,7 @@ def _run(args: argparse.Namespace) -> int:
         quarantine_s=max(5.0, args.period),
         sensor_host="127.0.0.1",
         sensor_ports={stasis.name: board.port},
+        position_sms_period_s=args.position_period,
     )
     bridge = Bridge(config, vessel=glider)
     stop = bridge.stop_event

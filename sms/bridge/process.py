@@ -16,8 +16,9 @@ board answered in 4–17 ms; §2, §10 of docs/level2.md):
 * ``loops`` given to the bridge (the shore link's ``run(stop)``), each in a thread of its own:
   a slow shore server delays nothing else.
 * the main thread: :meth:`Bridge.do_one_housekeeping` about once a second (command timeouts,
-  fix batches, results the database refused, ``close_old_connections``; a step that keeps
-  failing is retried ever less often) and the systemd watchdog.
+  fix batches, results the database refused, the position SMS on its schedule
+  (:mod:`sms.bridge.positions`), ``close_old_connections``; a step that keeps failing is
+  retried ever less often) and the systemd watchdog.
 
 A stop (SIGTERM/SIGINT set the flag) ends the threads, then writes what is still in memory
 (fixes, command results). Everything else is in the database as it happens: queued commands,
@@ -56,6 +57,8 @@ from .commands import QUARANTINE_S, RESULT_TIMEOUT_S, DatabaseCommandSource
 from .dispatch import Dispatcher
 from .fixes import FixRecorder
 from .machine import BridgeMachine
+from .position_schedule import check_period
+from .positions import PositionReporter
 from .power import parse_command
 from .records import RecordTable
 from .sensors import LatestReadings, SensorSubscriber
@@ -73,6 +76,9 @@ JOIN_S = 10.0
 # A housekeeping step that keeps failing (a database away, a bug) is retried ever less often,
 # up to this long apart: one line per retry, not a traceback every tick.
 HOUSEKEEPING_RETRY_MAX_S = 30.0
+# The C&C counts as silent (the position SMS says so) after this many poll periods without a
+# request: it polls every period, and retries within seconds (§10).
+CC_SILENT_POLLS = 3
 ENV_PREFIX = "WG_"
 
 
@@ -87,7 +93,11 @@ class HealingMachine(BridgeMachine):
     error: nothing else in that thread would (close_old_connections runs per request in a web
     server). Costs nothing until an error; then one ``SELECT 1`` decides (CONN_HEALTH_CHECKS)."""
 
+    # When the C&C last sent a request (time.monotonic()): how the bridge knows it is silent.
+    last_request_at: float | None = None
+
     def handle(self, frame: Frame) -> list[Frame]:
+        self.last_request_at = time.monotonic()
         if connection.errors_occurred:
             try:
                 connection.close_if_unusable_or_obsolete()
@@ -130,6 +140,9 @@ class BridgeConfig:
     shore_key: str = field(default="", repr=False)  # a secret: never in a log line
     tick_s: float = TICK_S
     reconnect_delay_s: float = RECONNECT_DELAY_S
+    # The glider's position by SMS to the numbers that receive positions (issue 20 §5): every
+    # this many seconds, 0 = never.
+    position_sms_period_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("vessel", "level2_port", "modem_port"):
@@ -144,6 +157,7 @@ class BridgeConfig:
         if bool(self.shore_url) != bool(self.shore_key):
             raise ValueError("the shore URL and key go together (--upstream-url, --upstream-key)")
         parse_command(self.power_command)  # a quoting mistake is a ValueError now, not later
+        check_period(self.position_sms_period_s)
 
     @property
     def reply_window(self) -> float:
@@ -204,6 +218,7 @@ class Bridge:
         level2_trace: Callable[[str], None] | None = None,
         modem_config: Mapping[str, object] | None = None,
         sms_options: Mapping[str, object] | None = None,
+        position_options: Mapping[str, object] | None = None,
     ) -> None:
         self.config = config
         self.vessel = vessel or selectors.bridge_vessel(config.vessel)
@@ -244,6 +259,15 @@ class Bridge:
             readings=self.readings.snapshot,
             refresh=self.fixes.flush,
             **dict(sms_options or {}),  # type: ignore[arg-type]
+        )
+        self.started_at = time.monotonic()
+        self.positions = PositionReporter(
+            vessel=self.vessel,
+            period_s=config.position_sms_period_s,
+            nudge=self.sms.nudge,
+            refresh=self.fixes.flush,
+            cc_silent_s=self.cc_silent_s,
+            **dict(position_options or {}),  # type: ignore[arg-type]
         )
         self.subscriber: SensorSubscriber | None = None
         if config.sensor_host:
@@ -302,6 +326,7 @@ class Bridge:
             ("command timeouts", self._expire_overdue),
             ("fixes", self.fixes.flush_if_due),
             ("command results", self.source.flush_results),
+            ("position SMS", self.positions.do_one),
         ]
         healthy = True
         now = self.clock()
@@ -360,6 +385,13 @@ class Bridge:
         self.dispatch(note)
         if isinstance(note, CommandCompleted | ResultWithoutCommand):
             self.sms.nudge()
+
+    def cc_silent_s(self) -> float | None:
+        """How long the C&C has not sent a request, when that is more than CC_SILENT_POLLS poll
+        periods (counted from the start if it never did); None while it polls."""
+        last = self.machine.last_request_at or self.started_at
+        silent = time.monotonic() - last
+        return silent if silent > CC_SILENT_POLLS * self.config.poll_period_s else None
 
     def _expire_overdue(self) -> None:
         if self.source.expire_overdue():

@@ -3,7 +3,8 @@ and the authorised numbers (docs/sms.md: only active authorised numbers with the
 answered; everything else is logged and not answered).
 
 One module per sub-domain: ``incoming`` (the handle path), ``replies`` (when and what is
-answered), ``outgoing`` (the modem's queue), ``numbers``, ``shore`` (the shore link's
+answered), ``outgoing`` (the modem's queue), ``positions`` (the glider's position SMS),
+``numbers``, ``shore`` (the shore link's
 uploads). The public names are re-exported here; patch a name where it is looked up (its
 module), not here.
 """
@@ -19,6 +20,14 @@ from sms.services.numbers import (
     validation_message,
 )
 from sms.services.outgoing import sms_mark_failed, sms_mark_sent, sms_outgoing_pending
+from sms.services.positions import (
+    LastRound,
+    PositionRound,
+    position_last_round,
+    position_report,
+    position_state,
+    sms_position_queue,
+)
 from sms.services.replies import sms_replies_due
 from sms.services.shore import (
     SMS_TIMES,
@@ -31,6 +40,8 @@ from sms.services.shore import (
 
 __all__ = [
     "DETAIL_MAX",
+    "LastRound",
+    "PositionRound",
     "SMS_TIMES",
     "TEXT_STORE_MAX",
     "NumbersReplaced",
@@ -41,6 +52,9 @@ __all__ = [
     "authorised_number_save",
     "authorised_numbers_replace",
     "number_normalise",
+    "position_last_round",
+    "position_report",
+    "position_state",
     "shipped_table",
     "sms_handle_incoming",
     "sms_log_check",
@@ -49,6 +63,7 @@ __all__ = [
     "sms_mark_failed",
     "sms_mark_sent",
     "sms_outgoing_pending",
+    "sms_position_queue",
     "sms_replies_due",
     "validation_message",
 ]

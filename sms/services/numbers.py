@@ -74,7 +74,7 @@ def authorised_number_save(
 
 
 # What an entry's audit detail shows; notes only as changed or not (free text, any length).
-_AUDITED = ["number", "name", "role", "active", "expires_at"]
+_AUDITED = ["number", "name", "role", "active", "expires_at", "receives_positions"]
 
 
 def _as_audited(pk: int) -> dict[str, Any]:
@@ -112,10 +112,12 @@ def authorised_number_authorise(
     name: str,
     expires_at: dt.datetime | None = None,
     notes: str | None = None,
+    receives_positions: bool | None = None,
 ) -> AuthorisedNumber:
     """Authorise a number for exactly these vessels (creating or updating its entry, active).
 
-    Idempotent, for scripted provisioning (``manage.py authorise_number``).
+    Idempotent, for scripted provisioning (``manage.py authorise_number``). ``notes`` and
+    ``receives_positions`` left None keep what the entry had.
     """
     e164 = number_normalise(raw=number)
     entry = AuthorisedNumber.objects.filter(number=e164).first() or AuthorisedNumber(number=e164)
@@ -125,6 +127,8 @@ def authorised_number_authorise(
     entry.expires_at = expires_at
     if notes is not None:
         entry.notes = notes
+    if receives_positions is not None:
+        entry.receives_positions = receives_positions
     return authorised_number_save(entry=entry, vessels=vessels)
 
 

@@ -64,7 +64,9 @@ def authorised_numbers_replace(
     *, vessel: Vessel, numbers: Sequence[Mapping[str, object]]
 ) -> NumbersReplaced:
     """Make ``numbers`` (the shore's list for ``vessel``: number, name, role, active,
-    expires_at) the numbers that may address ``vessel`` here, in one transaction.
+    expires_at, receives_positions) the numbers that may address ``vessel`` here, in one
+    transaction. A list without ``receives_positions`` (a shore older than the flag) leaves
+    the flag here as it is.
 
     The shore admin is where numbers are managed: an entry missing from the list may no longer
     address the vessel (its entry is kept, so the log still names its holder). An unusable
@@ -97,6 +99,8 @@ def _numbers_replace(vessel: Vessel, numbers: Sequence[Mapping[str, object]]) ->
         entry = AuthorisedNumber.objects.filter(number=e164).first()
         linked = entry is not None and entry.vessels.filter(pk=vessel.pk).exists()
         wanted = {"name": name, "role": role, "active": active, "expires_at": expires_at}
+        if "receives_positions" in raw:
+            wanted["receives_positions"] = raw["receives_positions"] is True
         if entry is not None and linked and all(getattr(entry, k) == v for k, v in wanted.items()):
             kept.add(e164)
             continue

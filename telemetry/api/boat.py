@@ -12,6 +12,7 @@ from typing import Any
 
 from django.conf import settings
 from django.http import HttpRequest, HttpResponse, HttpResponseBase
+from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import (
     OpenApiParameter,
     extend_schema,
@@ -27,7 +28,11 @@ from rest_framework.response import Response
 from edge_client.contract import exchange
 from edge_client.contract import fix as fix_shape
 from telemetry.api import parsers
-from telemetry.api.parsers import LegacyTelemetryJSONParser, TelemetryJSONParser
+from telemetry.api.parsers import (
+    CompactFixesParser,
+    LegacyTelemetryJSONParser,
+    TelemetryJSONParser,
+)
 from telemetry.errors import KeyRefused
 from telemetry.services import fix_ingest
 from vessels.api.boat import BoatView, LegacyBoatView, batch_answer_schema, telem_ack
@@ -100,14 +105,14 @@ class TelemetryView(BoatView):
     revoked meanwhile gets the same 401 as ever."""
 
     keys_checked_by_writes = True  # vessels.auth.VesselKeyAuthentication
-    parser_classes = [TelemetryJSONParser]
+    parser_classes = [TelemetryJSONParser, CompactFixesParser]
     # (vessel, the ETag the boat holds) -> what the answer adds: the commands app's
     # commands.api.boat.commands_exchange, given by fleet.urls (telemetry may not import
     # commands: tests/fleet/test_layers.py). None: the header is ignored.
     commands_exchange: Callable[[Vessel, str], dict[str, Any]] | None = None
 
     @extend_schema(
-        request=_Batch,
+        request={"application/json": _Batch, CompactFixesParser.media_type: OpenApiTypes.BINARY},
         parameters=[
             OpenApiParameter(
                 exchange.HEADER,
@@ -121,8 +126,11 @@ class TelemetryView(BoatView):
         tags=["boat"],
     )
     def post(self, request: Request) -> Response:
-        """Store a batch of fixes (`{"fixes": [...]}`, or the bare list). Bad fixes are
-        reported by index; the good ones are kept; re-sent fixes count as duplicates."""
+        """Store a batch of fixes (`{"fixes": [...]}`, or the bare list; or a compact payload,
+        `application/vnd.shoreside.fixes`, answered alike). Bad fixes are reported by index;
+        the good ones are kept; re-sent fixes count as duplicates."""
+        if not request.data and request.content_type.startswith(CompactFixesParser.media_type):
+            raise ParseError("compact fixes: the body is empty")  # DRF parses no empty body
         vessel = self.vessel(request)
         result = fix_ingest(
             vessel=vessel, records=records_from_body(request.data), key_id=request.auth.pk

@@ -249,7 +249,7 @@ def test_numbers_added_changed_and_removed_in_the_admin(admin_ui: Client, glider
     assert (added.subject, added.vessel) == (f"Skipper ({SKIPPER})", "glider")
     assert added.detail == {
         "number": SKIPPER, "name": "Skipper", "role": "control", "active": True,
-        "expires_at": None, "notes": "", "vessels": ["glider"],
+        "expires_at": None, "receives_positions": False, "notes": "", "vessels": ["glider"],
     }  # fmt: skip
     assert changed.detail == {"changes": {"role": ["control", "query"], "notes": ["", "set"]}}
     assert removed.detail["role"] == "query" and removed.subject_id == str(entry.pk)

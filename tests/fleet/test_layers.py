@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 # audit (the log every service writes) is the floor; operators (the operators' own API tokens
 # and login limit) sits beside vessels; alerts watch everything below and notify through sms.
 LAYER = {"audit": 0, "operators": 1, "vessels": 1, "telemetry": 2, "commands": 2, "sms": 3,
-         "alerts": 4, "fleet": 5}  # fmt: skip
+         "sbd": 3, "alerts": 4, "fleet": 5}  # fmt: skip
 STANDALONE = {"edge_client": {"django", "rest_framework", *LAYER}}
 
 
@@ -142,6 +142,8 @@ PURE = [
     "sms/language.py",
     "sms/replies.py",
     "sms/errors.py",
+    "sbd/errors.py",
+    "sbd/rockblock.py",
     "sms/level2/codec.py",
     "sms/level2/framing.py",
     "sms/level2/bodies.py",
@@ -163,6 +165,9 @@ PURE = [
     "edge_client/geo.py",
     "edge_client/mission.py",
     "edge_client/fence_upload.py",
+    "edge_client/sbd/at.py",
+    "edge_client/sbd/errors.py",
+    "edge_client/sbd/session_codes.py",
     *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "edge_client/contract").glob("*.py")),
 ]
 IO = {"django", "rest_framework", "serial", "socket", "requests", "pymavlink", "sqlite3"}

@@ -91,6 +91,26 @@ def test_an_authorised_number_is_normalised_when_saved(
     assert SKIPPER in listing and "glider" in listing
 
 
+def test_receives_positions_is_set_in_the_admin_and_off_by_default(
+    admin_client: Client, glider: Vessel
+) -> None:
+    form = {"number": "0412 345 678", "name": "Skipper", "vessels": [glider.pk],
+            "role": "query", "active": "on", "notes": ""}  # fmt: skip
+    assert (
+        "receives_positions"
+        in admin_client.get("/admin/sms/authorisednumber/add/").content.decode()
+    )
+    admin_client.post("/admin/sms/authorisednumber/add/", form)
+    entry = AuthorisedNumber.objects.get()
+    assert entry.receives_positions is False
+    change = f"/admin/sms/authorisednumber/{entry.pk}/change/"
+    assert admin_client.post(change, {**form, "receives_positions": "on"}).status_code == 302
+    entry.refresh_from_db()
+    assert entry.receives_positions is True
+    listing = admin_client.get("/admin/sms/authorisednumber/?receives_positions__exact=1")
+    assert SKIPPER in listing.content.decode()
+
+
 def test_an_invalid_number_is_a_clear_form_error(admin_client: Client, glider: Vessel) -> None:
     response = admin_client.post(
         "/admin/sms/authorisednumber/add/",

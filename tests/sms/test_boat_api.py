@@ -50,9 +50,9 @@ def test_numbers_lists_only_those_that_may_address_the_vessel(glider, vessel_a, 
     assert response.json() == {
         "numbers": [
             {"number": "+61400000002", "name": "Both", "role": "query", "active": True,
-             "expires_at": None},
+             "expires_at": None, "receives_positions": False},
             {"number": "+61412345678", "name": "Ana", "role": "control", "active": True,
-             "expires_at": None},
+             "expires_at": None, "receives_positions": False},
         ]
     }  # fmt: skip
 

@@ -47,6 +47,16 @@ def test_authorise_number_again_replaces_vessels_and_reactivates(
     assert (entry.active, entry.role, list(entry.vessels.all())) == (True, "query", [vessel_a])
 
 
+def test_authorise_number_positions_on_off_and_left_alone(glider: Vessel) -> None:
+    args = ("authorise_number", SKIPPER, "--vessel", "glider", "--role", "query", "--name", "S")
+    _, said = run(*args, "--positions")
+    assert "receives positions" in said
+    run(*args)  # not given: unchanged
+    assert AuthorisedNumber.objects.get().receives_positions is True
+    run(*args, "--no-positions")
+    assert AuthorisedNumber.objects.get().receives_positions is False
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [

@@ -22,6 +22,7 @@ class VesselSerializer(serializers.ModelSerializer):
             "telemetry_period_s",
             "cruise_speed_mps",
             "move_to_max_m",
+            "imei",
             "status",
             "last_seen_at",
             "last_fix_at",
@@ -40,7 +41,10 @@ class VesselUpdateSerializer(serializers.ModelSerializer):
 
     class Meta:
         model = Vessel
-        fields = ["move_to_max_m"]
+        fields = ["move_to_max_m", "imei"]
+
+    def validate_imei(self, value: str | None) -> str | None:
+        return value or None  # "" clears it, as null does: unique, so never stored blank
 
     def validate(self, attrs: dict[str, Any]) -> dict[str, Any]:
         given = self.initial_data if isinstance(self.initial_data, dict) else {}

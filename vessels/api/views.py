@@ -24,7 +24,7 @@ from vessels.services import vessel_update
 
 class VesselViewSet(viewsets.ReadOnlyModelViewSet):
     """Vessels with their last fix and state (reporting, overdue, never seen); PATCH changes
-    an operator's settings of one (`move_to_max_m`; needs vessels.change_vessel)."""
+    an operator's settings of one (`move_to_max_m`, `imei`; needs vessels.change_vessel)."""
 
     serializer_class = VesselSerializer
     lookup_field = "slug"

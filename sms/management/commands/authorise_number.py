@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import datetime as dt
 from typing import Any
 
@@ -37,6 +38,12 @@ class Command(AuditedCommand):  # audited as the shell user, via cli
             "--expires", help="YYYY-MM-DD: the authorisation ends at the start of that day (UTC)"
         )
         parser.add_argument("--notes")
+        parser.add_argument(
+            "--positions",
+            action=argparse.BooleanOptionalAction,
+            help="texted the glider's position on the bridge's schedule (default: unchanged; "
+            "a new number does not)",
+        )
 
     def handle(self, *args: Any, **opts: Any) -> None:
         slugs = list(dict.fromkeys(opts["vessel"]))
@@ -55,6 +62,7 @@ class Command(AuditedCommand):  # audited as the shell user, via cli
                 name=opts["name"],
                 expires_at=expires_at,
                 notes=opts["notes"],
+                receives_positions=opts["positions"],
             )
         except SmsError as exc:
             raise CommandError(exc.message) from None
@@ -63,5 +71,6 @@ class Command(AuditedCommand):  # audited as the shell user, via cli
         self.stderr.write(
             f"{entry.name} may text {', '.join(sorted(slugs))} ({entry.role})"
             + (f" until {entry.expires_at:%Y-%m-%d}" if entry.expires_at else "")
+            + (", receives positions" if entry.receives_positions else "")
         )
         self.stdout.write(entry.number)

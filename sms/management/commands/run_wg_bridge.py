@@ -36,6 +36,13 @@ class Command(BaseCommand):
         add("--sensor-host", help="the payload board's address for the UDP data servers")
         add("--sensor-ports", type=parse_ports, help="record=port,… (default: the layout's)")
         add("--power-command", help="run on a power-down notice (default: log only)")
+        add(
+            "--position-sms-period",
+            dest="position_sms_period_s",
+            type=float,
+            help="text the position to the numbers that receive positions every this many "
+            "seconds (0: never, the default; at least 60)",
+        )
         add("--upstream-url", dest="shore_url", help="shore server URL (WG_SHORE_URL)")
         add(
             "--upstream-key",
@@ -54,7 +61,7 @@ class Command(BaseCommand):
         names = (
             "vessel", "level2_port", "modem_port", "poll_period_s", "reply_window_s",
             "result_timeout_s", "sensor_host", "sensor_ports", "power_command", "shore_url",
-            "shore_key",
+            "shore_key", "position_sms_period_s",
         )  # fmt: skip
         try:
             config = BridgeConfig.from_env(**{name: opts.get(name) for name in names})
@@ -70,6 +77,11 @@ class Command(BaseCommand):
         self.stdout.write(
             f"wg bridge for {vessel.slug}: Level 2 on {config.level2_port}, "
             f"modem on {config.modem_port}, reply window {config.reply_window:g} s"
+            + (
+                f", position SMS every {config.position_sms_period_s:g} s"
+                if config.position_sms_period_s
+                else ""
+            )
         )
         bridge.run()
         self.stdout.write("wg bridge stopped")

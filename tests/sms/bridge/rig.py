@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -65,6 +65,7 @@ def running_bridge(
     glider: Vessel,
     modem_where: str = "pty",
     loops: Sequence[tuple[str, Callable[[threading.Event], None]]] = (),
+    position_options: Mapping[str, object] | None = None,
     **config: object,
 ) -> Iterator[Rig]:
     cc_port = PtyPort(timeout=0.01)
@@ -88,6 +89,7 @@ def running_bridge(
         modem_config=FAST_MODEM,
         loops=loops,
         sms_options={"retry_base_s": 0.1, "retry_max_s": 0.2},
+        position_options=position_options,
     )
     thread = threading.Thread(target=bridge.run, daemon=True)
     thread.start()

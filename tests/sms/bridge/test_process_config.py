@@ -100,3 +100,15 @@ def test_the_shore_key_may_come_from_a_file_kept_out_of_ps(
         call_command("run_wg_bridge", vessel="glider", upstream_key_file=str(key_file), **ports)
     with pytest.raises(CommandError, match="cannot read the key file"):
         call_command("run_wg_bridge", vessel="glider", upstream_key_file="/nonexistent", **ports)
+
+
+def test_the_position_sms_period_is_off_by_default_and_at_least_a_minute() -> None:
+    environ = {f"WG_{k.upper()}": v for k, v in PORTS.items()}
+    assert BridgeConfig.from_env(environ).position_sms_period_s == 0
+    hourly = BridgeConfig.from_env({**environ, "WG_POSITION_SMS_PERIOD_S": "3600"})
+    assert hourly.position_sms_period_s == 3600.0
+    assert BridgeConfig.from_env(environ, position_sms_period_s=600.0).position_sms_period_s == 600
+    with pytest.raises(ValueError, match="0 \\(off\\) or at least 60"):
+        BridgeConfig.from_env({**environ, "WG_POSITION_SMS_PERIOD_S": "6"})
+    with pytest.raises(ValueError, match="WG_POSITION_SMS_PERIOD_S='hourly' is not a number"):
+        BridgeConfig.from_env({**environ, "WG_POSITION_SMS_PERIOD_S": "hourly"})

@@ -80,6 +80,15 @@ def test_an_unusable_entry_is_skipped_and_the_rest_applied(glider):
     assert list(AuthorisedNumber.objects.values_list("number", flat=True)) == ["+61400000003"]
 
 
+def test_the_shore_says_who_receives_positions_and_an_older_shore_leaves_it(glider):
+    authorised_numbers_replace(vessel=glider, numbers=[entry(ANA, receives_positions=True)])
+    assert AuthorisedNumber.objects.get(number=ANA).receives_positions is True
+    result = authorised_numbers_replace(vessel=glider, numbers=[entry(ANA)])  # no such field
+    assert result.updated == 0 and AuthorisedNumber.objects.get(number=ANA).receives_positions
+    authorised_numbers_replace(vessel=glider, numbers=[entry(ANA, receives_positions=False)])
+    assert AuthorisedNumber.objects.get(number=ANA).receives_positions is False
+
+
 def test_an_unchanged_list_writes_nothing(glider):
     authorised_numbers_replace(vessel=glider, numbers=[entry(ANA)])
     before = AuthorisedNumber.objects.get(number=ANA).updated_at

@@ -19,6 +19,7 @@ class Command(BaseCommand):
         parser.add_argument(
             "--period", type=int, default=60, help="expected seconds between reports"
         )
+        parser.add_argument("--imei", help="its Iridium SBD modem's IMEI (15 digits)")
 
     def handle(self, *args: Any, **opts: Any) -> None:
         try:
@@ -27,6 +28,7 @@ class Command(BaseCommand):
                 name=opts["name"],
                 kind=opts["kind"],
                 telemetry_period_s=opts["period"],
+                imei=opts["imei"],
             )
         except ValidationError as exc:
             raise CommandError(
