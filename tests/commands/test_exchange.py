@@ -16,7 +16,7 @@ from rest_framework.test import APIClient
 from commands.lifecycle import Status
 from commands.models import Command, CommandEvent
 from commands.services import command_enqueue
-from edge_client.contract import exchange
+from edge_client.contract import compact, exchange
 from tests.conftest import give_position
 from tests.support import BROWSER_HEADERS, COMMANDS, TELEMETRY, MakeFix
 from tests.telemetry.test_boat_api import SINGLE_POST_STATEMENTS
@@ -225,3 +225,17 @@ def test_an_exchange_with_nothing_new_costs_one_select_more(
     expected = [*SINGLE_POST_STATEMENTS[connection.vendor], "SELECT"]
     assert kinds == expected, [q["sql"][:80] for q in queries]
     assert "commands_version" in queries[-1]["sql"]
+
+
+def test_a_compact_post_gets_the_exchange_as_a_json_one(
+    boat_a: APIClient, command_a: Command
+) -> None:
+    """application/vnd.shoreside.fixes is answered as JSON is: the header works there too."""
+    payload = compact.encode([{"time": 1_790_000_000, "lat": -31.95, "lon": 115.86}])
+    response = boat_a.generic(
+        "POST", TELEMETRY, payload, content_type=compact.CONTENT_TYPE, **{HEADER: '""'}
+    )
+    assert response.status_code == 200, response.content
+    answer = response.json()
+    assert answer["accepted"] == 1
+    assert [c["uid"] for c in answer["commands"]] == [str(command_a.uid)]
