@@ -41,7 +41,8 @@ TELEMETRY_PATH = "/api/v1/boat/telemetry/"
 COMMANDS_PATH = "/api/v1/boat/commands/"
 ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
 MAX_OUTAGE_BACKOFF_S = 60.0
-# A round put off for the next fix runs this long after the fix is due (its sample and commit).
+# A round put off for the next fix runs this long after the fix is due (its sample and commit,
+# a busy Pi's late wake-up), or a quarter of the telemetry period if that is longer.
 FIX_GRACE_S = 0.2
 # Ack answers that will never change (docs/api.md#errors): unknown/other vessel's command, illegal
 # transition (cancelled meanwhile), malformed.
@@ -245,7 +246,7 @@ class EdgeClient:
             return None
         if telemetry > self.config.commands.poll_period_s or now - self._sampled_at >= telemetry:
             return None
-        return self._sampled_at + telemetry + FIX_GRACE_S
+        return self._sampled_at + telemetry + max(FIX_GRACE_S, telemetry / 4)
 
     def _report(self, ok: bool, exc: TransportError | None = None) -> None:
         if ok and self.server_ok is not True:
@@ -269,7 +270,9 @@ class EdgeClient:
             items = self.outbox.peek("fix", batch_size)
             if not items:
                 return
-            if not self._send_fixes(items):
+            if not self._send_fixes(items) or len(items) < batch_size:
+                # Less than a batch: the outbox was drained when read. A fix sampled since
+                # waits for the next round rather than cost a request of its own.
                 return
 
     def _send_fixes(self, items: list) -> bool:

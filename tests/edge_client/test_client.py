@@ -310,8 +310,8 @@ def test_a_round_just_before_the_next_fix_waits_for_it_once_rather_than_poll(cli
     client.outbox.add_fix(fix(1))
     client.uplink_once(0.0)  # an exchange: the next round is due at 10
     client._sampled_at = 0.1  # the fix of 0.1 went; the next one comes at 10.1
-    assert client.uplink_once(10.0) == pytest.approx(0.3, abs=0.3)  # at 10.3, not a poll now
-    assert polls(server) == 0 and client._next_poll == pytest.approx(10.3)
+    client.uplink_once(10.0)  # not a poll now: a round at 10.1 + 2.5 (a quarter period late)
+    assert polls(server) == 0 and client._next_poll == pytest.approx(12.6)
     client.outbox.add_fix(fix(2))
     client._sampled_at = 10.1
     client.uplink_once(10.3)
@@ -319,7 +319,22 @@ def test_a_round_just_before_the_next_fix_waits_for_it_once_rather_than_poll(cli
     client.uplink_once(20.3)  # no fix since 10.1 (the autopilot went silent): a poll
     assert polls(server) == 1
     client._sampled_at = 20.5  # a fix due at 30.5...
-    client.uplink_once(30.3)  # ...so this round waits for it
-    assert polls(server) == 1
-    client.uplink_once(30.7)  # it is not there: a poll, never a second wait in a row
+    client.uplink_once(30.3)  # ...so this round waits for it, until 33.0
+    assert polls(server) == 1 and client._next_poll == pytest.approx(33.0)
+    client.uplink_once(33.0)  # it is not there: a poll, never a second wait in a row
     assert polls(server) == 2
+
+
+def test_a_round_sends_what_was_queued_when_it_read_and_no_more(client, server):
+    """A fix sampled during the round's post waits for the next round: one request a round."""
+    client.outbox.add_fix(fix(1))
+    real_send = client._send_fixes
+
+    def send_while_a_fix_comes(items):
+        client.outbox.add_fix(fix(2))  # sampled while the post is on its way
+        return real_send(items)
+
+    client._send_fixes = send_while_a_fix_comes
+    client.flush_fixes()
+    assert telemetry_posts(server) == [[fix(1)]]
+    assert client.outbox.count("fix") == 1

@@ -310,7 +310,8 @@ def test_a_boat_reporting_every_round_never_polls_and_gets_a_command_within_a_ro
     telemetry = [r for r in during if r == ("POST", "/api/v1/boat/telemetry/")]
     polls = [r for r in during if r == ("GET", "/api/v1/boat/commands/")]
     assert len(telemetry) >= 4, during
-    assert (polls == []) if exchange else (len(polls) >= 4), during
+    assert (polls == []) if exchange else (len(polls) >= 4), (during, rig.log()[-2000:])
     assert ("POST", f"/api/v1/boat/commands/{command.uid}/ack/") in during
-    # Within one round (and the request's own time on a shared test machine).
+    # Within one round (and the request's own time on a shared test machine); by design at
+    # most one round and a quarter (a round waiting for a fix a little late).
     assert handed_after <= round_s + 0.5, handed_after
