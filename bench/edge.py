@@ -1,13 +1,16 @@
 """Edge client footprint: memory, CPU and bytes on the wire, against the original SPAB client.
 
-    python -m bench.edge [--duration 60]
+    python -m bench.edge [--duration 60] [--before REF]
 
 Runs, side by side for ``--duration`` seconds (after a short warm-up):
 
 - the simulated Rover (``edge_client.sim``) streaming GLOBAL_POSITION_INT at 4 Hz, one per client;
-- the edge client (real process, HTTP transport) with telemetry every 2 s, polling every 2 s
+- the edge client (real process, HTTP transport) with telemetry every 2 s, its uplink every 2 s
   (the original cadence) and every 10 s (the default), each against its own tiny stdlib HTTP
-  server that speaks the boat API (ETag/304 included) and counts every byte in and out;
+  server that speaks the boat API (ETag/304 and the telemetry answer's command exchange
+  included) and counts every byte in and out; at each cadence twice: this client, and either
+  this client with ``[commands] exchange = false`` or, with ``--before REF`` (e.g. ``main``),
+  the edge client of that git ref, unpacked with ``git archive``;
 - the original SPAB client as a baseline (docs/benchmarks.md): every 2 s one JSON fix per POST to
   ``data.cgi`` and a full GET of ``requestCommands.cgi``, one TCP connection per request as
   through the F2414 modem, with minimal hand-written headers (generous to the baseline);
@@ -30,12 +33,14 @@ from __future__ import annotations
 
 import argparse
 import http.client
+import io
 import json
 import os
 import shutil
 import socket
 import subprocess
 import sys
+import tarfile
 import tempfile
 import threading
 import time
@@ -44,6 +49,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 TELEMETRY_PERIOD_S = 2.0
+EXCHANGE_HEADER = "X-Commands-ETag"
 SIM_RATE_HZ = 4.0
 WARMUP_S = 6.0
 TARGET_RSS_MB = 60.0
@@ -109,7 +115,13 @@ class BoatApi(BaseHTTPRequestHandler):
         if self.path == "/api/v1/boat/telemetry/":
             fixes = body["fixes"]
             self.server.stats["fixes"] += len(fixes)
-            self._send(200, {"accepted": len(fixes), "duplicates": 0, "rejected": []})
+            answer = {"accepted": len(fixes), "duplicates": 0, "rejected": []}
+            held = self.headers.get(EXCHANGE_HEADER)  # one exchange per period (docs/api.md)
+            if held is not None:
+                if held != self.ETAG:
+                    answer["commands"] = []
+                answer["commands_etag"] = self.ETAG
+            self._send(200, answer)
         elif self.path == "/spab/data.cgi":
             self.server.stats["fixes"] += 1 if isinstance(body, dict) else len(body)
             self._send(200, [{"type": "telemAck"}, {"success": "true", "message": "stored"}])
@@ -145,11 +157,21 @@ def free_udp_port() -> int:
         return s.getsockname()[1]
 
 
-def spawn(args: list[str]) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+def spawn(args: list[str], root: Path = ROOT) -> subprocess.Popen:
+    """``python <args>`` importing the edge client found in ``root`` (cwd and path)."""
+    env = {**os.environ, "PYTHONPATH": str(root)}
     env.pop("NOTIFY_SOCKET", None)
-    return subprocess.Popen([sys.executable, *args], cwd=ROOT, env=env,
+    return subprocess.Popen([sys.executable, *args], cwd=root, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+
+
+def edge_client_of(ref: str, dest: Path) -> Path:
+    """The edge_client package as it is at git ``ref``, unpacked under ``dest`` (its root)."""
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", ref, "edge_client"],
+                             check=True, capture_output=True).stdout  # fmt: skip
+    with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+        tar.extractall(dest, filter="data")
+    return dest
 
 
 def cpu_ticks(pid: int) -> int:
@@ -168,19 +190,34 @@ def rss_mb(pid: int) -> tuple[float, float]:
 
 
 class EdgeRun:
-    def __init__(self, label: str, poll_s: float, workdir: Path) -> None:
+    """One edge client with its simulator and its counting server.
+
+    ``root``: where its edge_client package is (another git ref's: ``--before``);
+    ``exchange``: this checkout's ``[commands] exchange`` (None: leave the key out, as an
+    older client knows no such key)."""
+
+    def __init__(
+        self, label: str, poll_s: float, workdir: Path, *, root: Path = ROOT,
+        exchange: bool | None = None,
+    ) -> None:  # fmt: skip
         self.label = label
         self.server = serve()
         port = free_udp_port()
         self.sim = spawn(["-m", "edge_client.sim", "--listen", f"udpin:127.0.0.1:{port}",
                           "--rate", str(SIM_RATE_HZ), "--prearm-delay", "0"])  # fmt: skip
+        name = f"{label.split(':')[0].replace(' ', '-')}-{poll_s}"
+        config = []
+        if exchange is not None:
+            path = workdir / f"{name}.toml"
+            path.write_text(f"[commands]\nexchange = {str(exchange).lower()}\n")
+            config = ["--config", str(path)]
         self.client = spawn([
-            "-m", "edge_client", "run", "--server",
+            "-m", "edge_client", "run", *config, "--server",
             f"http://127.0.0.1:{self.server.server_address[1]}", "--key", "bench-key",
-            "--mavlink", f"udpout:127.0.0.1:{port}", "--outbox", str(workdir / f"{poll_s}.db"),
+            "--mavlink", f"udpout:127.0.0.1:{port}", "--outbox", str(workdir / f"{name}.db"),
             "--telemetry-period", str(TELEMETRY_PERIOD_S), "--poll-period", str(poll_s),
             "--log-level", "WARNING",
-        ])  # fmt: skip
+        ], root)  # fmt: skip
 
     def begin(self) -> None:
         self.t0, self.ticks0 = time.monotonic(), cpu_ticks(self.client.pid)
@@ -355,6 +392,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--outbox-only", action="store_true", help="only the outbox's writes (a few seconds)"
     )
+    parser.add_argument(
+        "--before",
+        metavar="REF",
+        help="also run the edge client of this git ref (e.g. main) beside this one, in place "
+        "of this client with its exchange off",
+    )
     parser.add_argument("--outbox-workload", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.outbox_workload:
@@ -365,10 +408,14 @@ def main(argv: list[str] | None = None) -> int:
         outbox_report()
         return 0
     with tempfile.TemporaryDirectory() as tmp:
-        runs = [
-            EdgeRun("edge client: HTTP + ETag, poll 2 s", 2.0, Path(tmp)),
-            EdgeRun("edge client: HTTP + ETag, poll 10 s (default)", 10.0, Path(tmp)),
-        ]
+        runs = []
+        for poll_s, cadence in ((2.0, "uplink 2 s (as SPAB)"), (10.0, "uplink 10 s (default)")):
+            if args.before:
+                root = edge_client_of(args.before, Path(tmp) / "before")
+                runs.append(EdgeRun(f"{args.before}: {cadence}", poll_s, Path(tmp), root=root))
+            else:
+                runs.append(EdgeRun(f"exchange off: {cadence}", poll_s, Path(tmp), exchange=False))
+            runs.append(EdgeRun(f"this client: {cadence}", poll_s, Path(tmp), exchange=True))
         spab = SpabClient()
         try:
             time.sleep(WARMUP_S)
@@ -395,8 +442,8 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print("Bytes on the wire per hour (HTTP: request/status lines, headers, bodies)")
     print(
-        f"{'client':48} {'up B/h':>9} {'down B/h':>9} {'total B/h':>10} {'req/h':>6} "
-        f"{'TCP conn/h':>10} {'fixes/h':>8} {'vs SPAB':>9}"
+        f"{'client (telemetry every 2 s)':48} {'up B/h':>9} {'down B/h':>9} {'total B/h':>10} "
+        f"{'req/h':>6} {'TCP conn/h':>10} {'fixes/h':>8} {'vs SPAB':>9}"
     )
     base_total = per_hour(baseline["up"] + baseline["down"], baseline["wall"])
     for r in [baseline, *results]:
@@ -408,6 +455,11 @@ def main(argv: list[str] | None = None) -> int:
             f"{per_hour(r['connections'], r['wall']):10.0f} "
             f"{per_hour(r['fixes'], r['wall']):8.0f} {total / base_total:8.0%}"
         )
+    print()
+    for before, after in zip(results[::2], results[1::2], strict=True):
+        ratio = (after["up"] + after["down"]) / after["wall"]
+        ratio /= (before["up"] + before["down"]) / before["wall"]
+        print(f"{after['label']}: {ratio:.0%} of the bytes of {before['label']}")
     ok = all(r["rss"] <= TARGET_RSS_MB and r["cpu"] <= TARGET_CPU_PCT for r in results)
     print()
     outbox_report()

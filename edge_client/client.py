@@ -6,7 +6,8 @@ Threads and what each owns:
 - ``executor`` (:class:`Executor`): runs commands (arming can take a minute; a mission upload
   several seconds) without holding up telemetry;
 - ``uplink``: the only thread that talks to the server: sends queued acks, then fixes in
-  batches, then polls for commands. A slow or absent server delays only this thread;
+  batches, then polls for commands unless a telemetry answer already carried their list (one
+  exchange per period). A slow or absent server delays only this thread;
 - the caller's thread (:meth:`EdgeClient.run`): every telemetry period puts a fix into the
   outbox, pings the systemd watchdog while the other threads are alive, and watches the stop
   flag that SIGTERM sets.
@@ -26,6 +27,7 @@ from collections.abc import Callable
 
 from edge_client import systemd
 from edge_client.config import Config
+from edge_client.contract import exchange
 from edge_client.contract.backoff import after_failures
 from edge_client.contract.status import Status
 from edge_client.executor import Executor
@@ -39,6 +41,9 @@ TELEMETRY_PATH = "/api/v1/boat/telemetry/"
 COMMANDS_PATH = "/api/v1/boat/commands/"
 ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
 MAX_OUTAGE_BACKOFF_S = 60.0
+# A round put off for the next fix runs this long after the fix is due (its sample and commit,
+# a busy Pi's late wake-up), or a quarter of the telemetry period if that is longer.
+FIX_GRACE_S = 0.2
 # Ack answers that will never change (docs/api.md#errors): unknown/other vessel's command, illegal
 # transition (cancelled meanwhile), malformed.
 ACK_DROP_STATUSES = frozenset({400, 404, 409})
@@ -94,10 +99,17 @@ class EdgeClient:
         self._kick = threading.Event()
         self.executor = Executor(link, outbox, config.commands, on_ack=self._kick.set)
         self.etag: str | None = None
+        self.exchange = config.commands.exchange
         self.server_ok: bool | None = None
         self._uplink: threading.Thread | None = None
         self._failures = 0
         self._next_poll = 0.0
+        # This round's telemetry answer said the command list is current (exchange.py).
+        self._list_current = False
+        # When the last fix went into the outbox (monotonic), and whether the poll now due was
+        # already put off once to wait for the next one.
+        self._sampled_at: float | None = None
+        self._waited_for_fix = False
 
     # -- the main thread ----------------------------------------------------------------------
 
@@ -151,6 +163,7 @@ class EdgeClient:
         if evicted_total:
             fix["readings"]["edge_evicted_fixes"] = evicted_total  # reported to the shore
         self.outbox.add_fix(fix)
+        self._sampled_at = time.monotonic()
         return False
 
     def healthy(self) -> bool:
@@ -192,14 +205,26 @@ class EdgeClient:
             self._kick.wait(wait)
 
     def uplink_once(self, now: float) -> float:
-        """One round: acks, fixes, poll if due. Returns how long to wait before the next round."""
+        """One round: acks, fixes, poll if due. Returns how long to wait before the next round.
+
+        A round whose telemetry answer carried the command list's state (one exchange per
+        period, docs/api.md) polls not, and puts the next poll a period off: a boat that
+        reports every period never polls; one with nothing to send polls as ever."""
         period = self.config.commands.poll_period_s
+        self._list_current = False
         try:
             self.flush_acks()
             self.flush_fixes()
-            if now >= self._next_poll:
+            if self._list_current:
+                self._next_poll = now + period
+                self._waited_for_fix = False
+            elif now >= self._next_poll and (fix_at := self._fix_coming(now)) is not None:
+                self._next_poll = fix_at
+                self._waited_for_fix = True
+            elif now >= self._next_poll:
                 self.poll()
                 self._next_poll = now + period
+                self._waited_for_fix = False
         except TransportError as exc:
             self._failures += 1
             self._report(False, exc)
@@ -207,6 +232,21 @@ class EdgeClient:
         self._failures = 0
         self._report(True)
         return max(0.05, min(period, self._next_poll - time.monotonic()))
+
+    def _fix_coming(self, now: float) -> float | None:
+        """When to run the round instead of polling now, or None to poll.
+
+        A boat reporting every round whose round came just before its next fix (the sampling
+        and the uplink run on clocks of their own; at equal periods they drift past each
+        other) waits for that fix, once, rather than poll: the fix's exchange brings the list.
+        Only while fixes come at least once a poll period, so the list is never older than a
+        poll period and one telemetry period."""
+        telemetry = self.config.telemetry.period_s
+        if not self.exchange or self._waited_for_fix or self._sampled_at is None:
+            return None
+        if telemetry > self.config.commands.poll_period_s or now - self._sampled_at >= telemetry:
+            return None
+        return self._sampled_at + telemetry + max(FIX_GRACE_S, telemetry / 4)
 
     def _report(self, ok: bool, exc: TransportError | None = None) -> None:
         if ok and self.server_ok is not True:
@@ -230,14 +270,18 @@ class EdgeClient:
             items = self.outbox.peek("fix", batch_size)
             if not items:
                 return
-            if not self._send_fixes(items):
+            if not self._send_fixes(items) or len(items) < batch_size:
+                # Less than a batch: the outbox was drained when read. A fix sampled since
+                # waits for the next round rather than cost a request of its own.
                 return
 
     def _send_fixes(self, items: list) -> bool:
         """POST one batch; True if every fix in it was settled (so the caller may go on)."""
         ids = [i.id for i in items]
+        body = {"fixes": [i.body for i in items]}
+        headers = {exchange.HEADER: exchange.held_etag(self.etag)} if self.exchange else None
         try:
-            response = self.transport.post_json(TELEMETRY_PATH, {"fixes": [i.body for i in items]})
+            response = self.transport.post_json(TELEMETRY_PATH, body, headers)
         except TransportError as exc:
             if exc.status != 400:
                 raise
@@ -252,7 +296,10 @@ class EdgeClient:
                 return True
             half = len(items) // 2
             return self._send_fixes(items[:half]) and self._send_fixes(items[half:])
-        settlement = settle_fix_batch(ids, response.json())
+        answer = response.json()
+        if self.exchange:
+            self._take_exchange(answer)
+        settlement = settle_fix_batch(ids, answer)
         if settlement.keep_reason:
             log.warning("keeping %d fixes: %s", len(ids), settlement.keep_reason)
             return False
@@ -263,6 +310,18 @@ class EdgeClient:
         self.outbox.remove(settlement.remove)
         return True
 
+    def _take_exchange(self, answer: object) -> None:
+        """The command list a telemetry answer carries, as a poll's: an answer without one
+        (an older server) leaves the poll to do it."""
+        found = exchange.list_in_answer(answer)
+        if found is None:
+            return
+        etag, commands = found
+        if commands is not None:
+            self._take_commands(commands)
+        self.etag = etag
+        self._list_current = True
+
     def poll(self) -> None:
         response = self.transport.get(COMMANDS_PATH, self.etag)
         if response.status == 304:
@@ -271,7 +330,10 @@ class EdgeClient:
         commands = data.get("commands") if isinstance(data, dict) else None
         if not isinstance(commands, list):
             raise TransportError("commands answer has no commands list")
+        self._take_commands(commands)
+        self.etag = response.etag
+
+    def _take_commands(self, commands: list) -> None:
         new = self.executor.offer(commands)
         if new:
             log.info("%d new command(s) from the server", new)
-        self.etag = response.etag

@@ -82,6 +82,9 @@ class CommandsConfig:
     # Poll for commands and send what the outbox holds (fixes in batches) this often: one
     # uplink cadence keeps the modem/3G link idle in between.
     poll_period_s: float = 10.0
+    # Ask for the command list in the answer to each telemetry post (X-Commands-ETag): a
+    # round that sent fixes then needs no poll. Off: poll every round, as before.
+    exchange: bool = True
     arm_before_move: bool = True
     arm_timeout_s: float = 60.0
     acceptance_radius_m: float = 10.0

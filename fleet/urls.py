@@ -7,17 +7,26 @@ from rest_framework.permissions import IsAuthenticated
 
 from alerts.api import urls as alert_urls
 from commands.api import urls as command_urls
+from commands.api.boat import commands_exchange
 from fleet.console_api import FleetAlertsView, FleetOverlaysView
 from fleet.schema import SchemaView
 from sbd.api import urls as sbd_urls
 from sms.api import urls as sms_urls
 from telemetry.api import urls as telemetry_urls
+from telemetry.api.boat import TelemetryView
 
 admin.site.site_header = "Shoreside"
 admin.site.site_title = "Shoreside"
 admin.site.index_title = "Fleet"
 
 api_v1 = [
+    # The boat's telemetry post answers with its command list when it changed (one exchange
+    # per period, docs/api.md): wired here, where both apps may be imported.
+    path(
+        "boat/telemetry/",
+        TelemetryView.as_view(commands_exchange=commands_exchange),
+        name="boat-telemetry",
+    ),
     path("", include(telemetry_urls.urlpatterns)),
     path("", include(command_urls.urlpatterns)),
     path("", include(sms_urls.urlpatterns)),

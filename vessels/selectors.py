@@ -28,6 +28,12 @@ def vessel_by_slug(slug: str) -> Vessel:
     return get_object_or_404(Vessel, slug=slug)
 
 
+def vessel_commands_version(vessel_id: int) -> int:
+    """The vessel's commands_version as stored now: a vessel from the recent key lookups
+    (vessels.auth.key_lookup_recent) may carry one up to a minute old."""
+    return sql.commands_version(vessel_id)
+
+
 def vessel_key_by_hash(key_hash: str) -> VesselKey | None:
     """The key with this hash and its vessel (partly loaded: only what authentication and the
     boat API read), or None. Written out in vessels.sql: the hottest query of the site."""

@@ -100,6 +100,28 @@ def key_works(key_id: int) -> bool:
         return cursor.fetchone() is not None
 
 
+# -- The command list's version (commands.api.boat.commands_exchange) ----------------------------
+#
+# Read beside every telemetry post that carries X-Commands-ETag (the edge client's everyday
+# post): through the ORM it added half the post's own CPU time (0.19 ms on 0.36 ms, profiled in
+# process on SQLite); written out, 0.02 ms. Benchmark: bench.server --single-only, "+exchange".
+
+
+@functools.cache
+def _commands_version_sql(vendor: str) -> str:
+    qn, meta = connection.ops.quote_name, Vessel._meta
+    column = meta.get_field("commands_version").column
+    return f"SELECT {qn(column)} FROM {qn(meta.db_table)} WHERE {qn(meta.pk.column)} = %s"
+
+
+def commands_version(vessel_id: int) -> int:
+    """The vessel's commands_version as stored now (0 for no such vessel)."""
+    with connection.cursor() as cursor:
+        cursor.execute(_commands_version_sql(connection.vendor), [vessel_id])
+        row = cursor.fetchone()
+    return row[0] if row else 0
+
+
 # -- The vessel's last fix (vessels.services.vessel_record_fix; telemetry's ingest) -------------
 #
 # One conditional UPDATE, written once: backlogs arrive oldest first and out of order, so

@@ -1,8 +1,9 @@
 -- POST batches of fixes with timestamps unique per request (and per wrk thread).
--- wrk -s ingest.lua URL -- <batch> <first_unix_second> <api_key>[,<api_key>...]
+-- wrk -s ingest.lua URL -- <batch> <first_unix_second> <api_key>[,<api_key>...] [<etag>,...]
 -- Fix k of this thread is at first_unix_second + thread_offset + k/100 s (ISO 8601, +00:00).
 -- Several keys (comma-separated): wrk thread i posts with key i (mod their number), so with one
--- connection per thread (-t N -c N) each connection is its own boat.
+-- connection per thread (-t N -c N) each connection is its own boat. ETags (one per key): sent
+-- in X-Commands-ETag, as the edge client does (one exchange per period, docs/api.md).
 local dir = debug.getinfo(1, "S").source:match("^@(.*/)") or "./"
 dofile(dir .. "common.lua")
 
@@ -14,6 +15,11 @@ function init(args)
    local keys = {}
    for k in string.gmatch(args[3], "[^,]+") do keys[#keys + 1] = k end
    key = keys[(thread_index or 0) % #keys + 1]
+   if args[4] then
+      local etags = {}
+      for e in string.gmatch(args[4], "[^,]+") do etags[#etags + 1] = e end
+      wrk.headers["X-Commands-ETag"] = etags[(thread_index or 0) % #etags + 1]
+   end
    sent = 0
    -- a million seconds per thread: no two threads ever share a timestamp
    offset = (thread_index or 0) * 1000000
@@ -43,5 +49,10 @@ function request()
 end
 
 function response(status, headers, body)
-   count_response(status == 200 and string.find(body, '"rejected":%[%]') ~= nil, status, body)
+   local ok = status == 200 and string.find(body, '"rejected":%[%]') ~= nil
+   if wrk.headers["X-Commands-ETag"] then  -- the list unchanged: its ETag alone, no commands
+      ok = ok and string.find(body, '"commands_etag"') ~= nil
+         and string.find(body, '"commands":') == nil
+   end
+   count_response(ok, status, body)
 end

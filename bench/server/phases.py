@@ -143,27 +143,39 @@ def measure_single(stack: Stack, opts: argparse.Namespace, clock: Clock) -> Sing
     Each wrk connection is a boat of its own (its own vessel and key, one wrk thread per
     connection), on both sides alike: a fleet's boats each post their own fixes, and N
     connections posting for one boat would queue on that boat's rows (its last fix, its
-    overview minute), which no fleet does."""
-    paths = {"ours": TELEMETRY, "drf": DRF_TELEMETRY}
+    overview minute), which no fleet does.
+
+    Each round also runs ours as the edge client posts (one exchange per period: the
+    X-Commands-ETag it holds, the list unchanged), shown beside the others, not in the
+    single/DRF ratio."""
+    paths = {"ours": TELEMETRY, "drf": DRF_TELEMETRY, "exchange": TELEMETRY}
     conns = opts.connections
+    ours_keys = [stack.keys[slug] for slug in single_post_slugs("ours", conns)]
+    etags = ",".join(poll_etag(stack.port, key) for key in ours_keys)
 
     def run(side: str, seconds: float) -> WrkResult:
-        keys = ",".join(stack.keys[slug] for slug in single_post_slugs(side, conns))
+        slugs_side = "ours" if side == "exchange" else side
+        keys = ",".join(stack.keys[slug] for slug in single_post_slugs(slugs_side, conns))
         args = ["1", str(clock.take(2 * 10**6 * conns)), keys]
+        if side == "exchange":
+            args.append(etags)
         return wrk(
             stack, paths[side], "ingest.lua", args, seconds=seconds, connections=conns,
             threads=conns,
         )  # fmt: skip
 
-    warm_ok = {SINGLE_SLUGS[side]: run(side, opts.warmup_seconds).ok for side in paths}
-    rounds: dict[str, list[WrkResult]] = {"ours": [], "drf": []}
+    warm_ok = {SINGLE_SLUGS[side]: run(side, opts.warmup_seconds).ok for side in ("ours", "drf")}
+    rounds: dict[str, list[WrkResult]] = {"ours": [], "drf": [], "exchange": []}
     for side in single_round_order(opts.rounds):
         rounds[side].append(run(side, opts.phase_seconds))
+        if side == "drf" and len(rounds["drf"]) > len(rounds["exchange"]):
+            rounds["exchange"].append(run("exchange", opts.phase_seconds))
     ratios = [
         o.rps / d.rps if d.rps else 0.0 for o, d in zip(rounds["ours"], rounds["drf"], strict=True)
     ]
     ours, drf = combine(rounds["ours"]), combine(rounds["drf"])
-    for name, r in (("single", ours), ("drf-single", drf)):
+    exchange = combine(rounds["exchange"])
+    for name, r in (("single", ours), ("drf-single", drf), ("+exchange", exchange)):
         print(
             f"  {name:<11} {r.rps:>10,.1f} posts/s  p50 {r.p50_ms:.1f} ms  p99 {r.p99_ms:.1f} ms  "
             f"CPU/req server {r.cpu_ms:.2f} ms, wrk {r.client_cpu_ms:.2f} ms  "
@@ -171,10 +183,21 @@ def measure_single(stack: Stack, opts: argparse.Namespace, clock: Clock) -> Sing
         )
     print(
         f"  single/DRF  {ours.rps / drf.rps if drf.rps else 0:.2f}x over {opts.rounds} "
-        f"interleaved rounds (per round: {', '.join(f'{x:.2f}' for x in ratios)})",
+        f"interleaved rounds (per round: {', '.join(f'{x:.2f}' for x in ratios)}); "
+        f"with X-Commands-ETag (+exchange)/DRF {exchange.rps / drf.rps if drf.rps else 0:.2f}x",
         flush=True,
     )
     return SingleRun(ours, drf, ratios, warm_ok)
+
+
+def poll_etag(port: int, key: str) -> str:
+    """The command list's ETag a boat holds after polling once (its list is empty here)."""
+    status, headers, _ = http_request(
+        port, "GET", COMMANDS, headers={"Authorization": f"Api-Key {key}"}
+    )
+    if status != 200 or not headers.get("ETag"):
+        raise SystemExit(f"poll for an ETag failed: {status}")
+    return headers["ETag"]
 
 
 def measure_poll(stack: Stack, opts: argparse.Namespace) -> PollRun:

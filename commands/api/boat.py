@@ -20,17 +20,50 @@ from rest_framework.response import Response
 from commands.lifecycle import ACK_STATUSES, Status
 from commands.models import Command, Source
 from commands.services import command_ack, command_claim_open, command_reports_record
+from edge_client.contract import exchange
 from vessels.api.boat import AwareDateTimeField, BoatView, batch_answer_schema
 from vessels.api.conditional import etag_matches
 from vessels.api.fields import StrictCharField
 from vessels.batch import Unreadable
 from vessels.models import Vessel
+from vessels.selectors import vessel_commands_version
 from vessels.text import json_unstorable, unstorable
 
 
-def commands_etag(vessel: Vessel) -> str:
-    """Changes whenever the vessel's open command list does (Vessel.commands_version)."""
-    return f'"c{vessel.pk}.{vessel.commands_version}"'
+def commands_etag(vessel: Vessel, version: int | None = None) -> str:
+    """Changes whenever the vessel's open command list does (Vessel.commands_version, or
+    ``version`` when the caller read it afresh)."""
+    return f'"c{vessel.pk}.{vessel.commands_version if version is None else version}"'
+
+
+def commands_since(vessel: Vessel, held: str | None, etag: str) -> list[dict[str, Any]] | None:
+    """The poll's ``commands`` for a boat holding ETag ``held`` (an If-None-Match value), or
+    None when ``held`` still matches ``etag``, the list's ETag now.
+
+    The one delivery path of the v1 boat API, for the poll and for the telemetry answer alike
+    (edge_client.contract.exchange): the list is claimed as the poll claims it (queued ones
+    marked sent, expired ones expired: command_claim_open). ``etag`` is read before the list:
+    if a command arrives meanwhile, the tag is older than the list and the boat just fetches
+    once more; the other order could hide a command."""
+    if etag_matches(held, etag):
+        return None
+    return [command_wire(c) for c in command_claim_open(vessel=vessel)]
+
+
+def commands_exchange(vessel: Vessel, held: str) -> dict[str, Any]:
+    """What a telemetry answer adds for a boat holding ETag ``held`` (the X-Commands-ETag
+    header): ``commands_etag``, and ``commands`` when the list changed since ``held``.
+
+    ``vessel`` may come from the recent key lookups, its commands_version a minute old: the
+    version is read afresh (one indexed SELECT). A value too long to be one of our tags is
+    taken as none held (the whole list follows), never parsed."""
+    etag = commands_etag(vessel, vessel_commands_version(vessel.pk))
+    if len(held) > exchange.MAX_HELD:
+        held = exchange.NONE_HELD
+    commands = commands_since(vessel, held, etag)
+    if commands is None:
+        return {exchange.ETAG_KEY: etag}
+    return {exchange.COMMANDS_KEY: commands, exchange.ETAG_KEY: etag}
 
 
 def command_wire(command: Command) -> dict[str, Any]:
@@ -66,15 +99,11 @@ class CommandListView(BoatView):
     def get(self, request: Request) -> Response | HttpResponseNotModified:
         """Open commands for this vessel, oldest first; `304` when the ETag still matches."""
         vessel = self.vessel(request)
-        # Read before listing: if a command arrives meanwhile, the tag is older than the list
-        # and the boat just fetches once more; the other order could hide a command.
         etag = commands_etag(vessel)
-        if etag_matches(request.META.get("HTTP_IF_NONE_MATCH"), etag):
-            response = HttpResponseNotModified()
-            response["ETag"] = etag
-            return response
-        commands = command_claim_open(vessel=vessel)
-        response = Response({"commands": [command_wire(c) for c in commands]})
+        commands = commands_since(vessel, request.META.get("HTTP_IF_NONE_MATCH"), etag)
+        response = (
+            HttpResponseNotModified() if commands is None else Response({"commands": commands})
+        )
         response["ETag"] = etag
         return response
 

@@ -1,4 +1,4 @@
-"""The transport interface: ``post_json(path, body)`` and ``get(path, etag)``.
+"""The transport interface: ``post_json(path, body, headers)`` and ``get(path, etag)``.
 
 A transport returns a :class:`Response` for 2xx and 304 answers and raises
 :class:`TransportError` for everything else. ``permanent=True`` means "sending the same request
@@ -57,7 +57,9 @@ class Response:
 
 
 class Transport(Protocol):
-    def post_json(self, path: str, body: Any) -> Response: ...
+    def post_json(
+        self, path: str, body: Any, headers: dict[str, str] | None = None
+    ) -> Response: ...
 
     def get(self, path: str, etag: str | None = None) -> Response: ...
 

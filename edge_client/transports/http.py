@@ -11,8 +11,8 @@ import json
 from typing import Any
 
 import requests
+from urllib3.util import SKIP_HEADER
 
-from edge_client import __version__
 from edge_client.transports.base import Response, TransportError, error_for_status, with_retries
 
 
@@ -33,17 +33,26 @@ class HttpTransport:
         self.backoff_s = backoff_s
         self.session = requests.Session()
         self.session.verify = ca_bundle if ca_bundle else True
-        # Only the headers the server needs: on 3G every byte of every request is paid for
-        # (requests' defaults add Accept, Accept-Encoding, Connection and a long User-Agent).
+        # Only the headers the server needs: on 3G every byte of every request is paid for.
+        # requests' defaults add Accept, Accept-Encoding, Connection and a long User-Agent;
+        # below them urllib3 adds its own User-Agent and http.client `Accept-Encoding:
+        # identity` (what a request without one means anyway: RFC 9110 §12.5.3) unless told
+        # to skip them. Left: Host, Authorization, Content-Type, Content-Length, and for
+        # the poll If-None-Match. Keep-alive is HTTP/1.1's default: no Connection header.
         self.session.headers.clear()
         self.session.headers.update(
-            {"Authorization": f"Api-Key {key}", "User-Agent": f"shoreside-edge/{__version__}"}
+            {
+                "Authorization": f"Api-Key {key}",
+                "User-Agent": SKIP_HEADER,
+                "Accept-Encoding": SKIP_HEADER,
+            }
         )
 
-    def post_json(self, path: str, body: Any) -> Response:
+    def post_json(self, path: str, body: Any, headers: dict[str, str] | None = None) -> Response:
         data = json.dumps(body, separators=(",", ":"), allow_nan=False).encode()
-        headers = {"Content-Type": "application/json"}
-        return self._request("POST", path, headers, data)
+        return self._request(
+            "POST", path, {"Content-Type": "application/json", **(headers or {})}, data
+        )
 
     def get(self, path: str, etag: str | None = None) -> Response:
         headers = {"If-None-Match": etag} if etag else {}

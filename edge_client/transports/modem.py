@@ -26,7 +26,6 @@ from urllib.parse import urlsplit
 
 import serial
 
-from edge_client import __version__
 from edge_client.httpwire import HttpWireError, ResponseParser, build_request
 from edge_client.transports.base import Response, TransportError, error_for_status, with_retries
 
@@ -64,9 +63,11 @@ class ModemTransport:
         self.backoff_s = backoff_s
         self._serial: serial.SerialBase | None = None
 
-    def post_json(self, path: str, body: Any) -> Response:
+    def post_json(self, path: str, body: Any, headers: dict[str, str] | None = None) -> Response:
         data = json.dumps(body, separators=(",", ":"), allow_nan=False).encode()
-        return self._request("POST", path, {"Content-Type": "application/json"}, data)
+        return self._request(
+            "POST", path, {"Content-Type": "application/json", **(headers or {})}, data
+        )
 
     def get(self, path: str, etag: str | None = None) -> Response:
         return self._request("GET", path, {"If-None-Match": etag} if etag else {}, b"")
@@ -91,11 +92,8 @@ class ModemTransport:
             method,
             self.host,
             self.prefix + path,
-            {
-                "Authorization": f"Api-Key {self.key}",
-                "User-Agent": f"shoreside-edge/{__version__}",
-                **headers,
-            },
+            # Only what the server needs (no User-Agent): every byte goes over paid 3G.
+            {"Authorization": f"Api-Key {self.key}", **headers},
             body,
         )
 

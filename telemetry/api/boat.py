@@ -7,18 +7,25 @@ APIViews that build their JSON by hand; :func:`telemetry.services.fix_ingest` do
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Any
 
 from django.conf import settings
 from django.http import HttpRequest, HttpResponse, HttpResponseBase
 from drf_spectacular.types import OpenApiTypes
-from drf_spectacular.utils import extend_schema, extend_schema_field, inline_serializer
+from drf_spectacular.utils import (
+    OpenApiParameter,
+    extend_schema,
+    extend_schema_field,
+    inline_serializer,
+)
 from rest_framework import serializers, status
 from rest_framework.exceptions import AuthenticationFailed, NotAuthenticated, ParseError
 from rest_framework.renderers import JSONRenderer
 from rest_framework.request import Request
 from rest_framework.response import Response
 
+from edge_client.contract import exchange
 from edge_client.contract import fix as fix_shape
 from telemetry.api import parsers
 from telemetry.api.parsers import (
@@ -30,6 +37,7 @@ from telemetry.errors import KeyRefused
 from telemetry.services import fix_ingest
 from vessels.api.boat import BoatView, LegacyBoatView, batch_answer_schema, telem_ack
 from vessels.auth import key_is_recent, key_recheck, raw_key
+from vessels.models import Vessel
 
 logger = logging.getLogger(__name__)
 
@@ -73,7 +81,21 @@ class FixIn(serializers.Serializer):
 
 _Batch = inline_serializer("TelemetryBatch", {"fixes": FixIn(many=True)})
 
-_IngestResult = batch_answer_schema("IngestResult")
+_IngestResult = batch_answer_schema(
+    "IngestResult",
+    {
+        exchange.ETAG_KEY: serializers.CharField(
+            required=False,
+            help_text=f"the command list's ETag now; only when the post sent {exchange.HEADER}",
+        ),
+        exchange.COMMANDS_KEY: serializers.ListField(
+            child=serializers.DictField(),
+            required=False,
+            help_text="the command poll's `commands`; only when the list's ETag differs from "
+            f"the one sent in {exchange.HEADER}",
+        ),
+    },
+)
 
 
 class TelemetryView(BoatView):
@@ -84,9 +106,22 @@ class TelemetryView(BoatView):
 
     keys_checked_by_writes = True  # vessels.auth.VesselKeyAuthentication
     parser_classes = [TelemetryJSONParser, CompactFixesParser]
+    # (vessel, the ETag the boat holds) -> what the answer adds: the commands app's
+    # commands.api.boat.commands_exchange, given by fleet.urls (telemetry may not import
+    # commands: tests/fleet/test_layers.py). None: the header is ignored.
+    commands_exchange: Callable[[Vessel, str], dict[str, Any]] | None = None
 
     @extend_schema(
         request={"application/json": _Batch, CompactFixesParser.media_type: OpenApiTypes.BINARY},
+        parameters=[
+            OpenApiParameter(
+                exchange.HEADER,
+                str,
+                OpenApiParameter.HEADER,
+                description='the command poll\'s ETag the boat holds (`""`: none yet): the '
+                "answer then carries the command list when it changed (docs/api.md)",
+            )
+        ],
         responses={200: _IngestResult},
         tags=["boat"],
     )
@@ -96,13 +131,21 @@ class TelemetryView(BoatView):
         the good ones are kept; re-sent fixes count as duplicates."""
         if not request.data and request.content_type.startswith(CompactFixesParser.media_type):
             raise ParseError("compact fixes: the body is empty")  # DRF parses no empty body
+        vessel = self.vessel(request)
         result = fix_ingest(
-            vessel=self.vessel(request),
-            records=records_from_body(request.data),
-            key_id=request.auth.pk,
+            vessel=vessel, records=records_from_body(request.data), key_id=request.auth.pk
         )
         request._request.link_fixes_in = result.accepted  # links.http counts them
-        return Response(result.as_dict())
+        return Response(self.answer(request, vessel, result))
+
+    def answer(self, request: HttpRequest | Request, vessel: Vessel, result: Any) -> dict:
+        """The batch answer, and the command list's exchange when the boat sent the ETag it
+        holds (edge_client.contract.exchange; without the header: the answer as ever)."""
+        answer = result.as_dict()
+        held = request.META.get(exchange.META_KEY)
+        if held is not None and self.commands_exchange is not None:
+            answer.update(self.commands_exchange(vessel, held))
+        return answer
 
     def dispatch(self, request: HttpRequest, *args: Any, **kwargs: Any) -> HttpResponseBase:
         """The everyday post (:func:`everyday_records`) goes the short way: DRF's own steps,
@@ -123,12 +166,12 @@ class TelemetryView(BoatView):
             self.perform_authentication(drf_request)
             self.check_permissions(drf_request)
             self.check_throttles(drf_request)
-            result = fix_ingest(
-                vessel=self.vessel(drf_request), records=records, key_id=drf_request.auth.pk
-            )
+            vessel = self.vessel(drf_request)
+            result = fix_ingest(vessel=vessel, records=records, key_id=drf_request.auth.pk)
             request.link_fixes_in = result.accepted  # type: ignore[attr-defined]
             response: HttpResponseBase = HttpResponse(
-                JSONRenderer().render(result.as_dict()), content_type=JSONRenderer.media_type
+                JSONRenderer().render(self.answer(request, vessel, result)),
+                content_type=JSONRenderer.media_type,
             )
         except Exception as exc:
             response = self.handle_exception(exc)

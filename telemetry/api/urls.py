@@ -1,11 +1,11 @@
-"""Telemetry endpoints: the boat's v1 telemetry and fix reads under /api/v1/; data.cgi under
-/spab/ (``legacy_urlpatterns``)."""
+"""Telemetry endpoints: the fix reads under /api/v1/ (the boat's v1 telemetry is routed by
+fleet.urls); data.cgi under /spab/ (``legacy_urlpatterns``)."""
 
 from __future__ import annotations
 
 from django.urls import path
 
-from telemetry.api.boat import LegacyDataView, TelemetryView
+from telemetry.api.boat import LegacyDataView
 from telemetry.api.maps import (
     VesselNearestFixView,
     VesselSeriesView,
@@ -14,8 +14,9 @@ from telemetry.api.maps import (
 )
 from telemetry.api.views import VesselFixesView
 
+# boat/telemetry/ (TelemetryView) is routed by fleet.urls, which gives it the command list's
+# exchange from the commands app.
 urlpatterns = [
-    path("boat/telemetry/", TelemetryView.as_view(), name="boat-telemetry"),
     path("vessels/<slug:slug>/fixes/", VesselFixesView.as_view(), name="vessel-fixes"),
     path(
         "vessels/<slug:slug>/fixes/nearest/",

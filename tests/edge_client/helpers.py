@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import pty
+import re
 import select
 import signal
 import socket
@@ -17,6 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+_REQUEST_LINE = re.compile(rb"(GET|POST|HEAD) (/\S*) HTTP/1\.1\r\n")
 
 
 def wait_until(predicate: Callable[[], object], timeout: float, what: str = "") -> object:
@@ -76,6 +78,7 @@ class TcpProxy:
         self._listener: socket.socket | None = None
         self._conns: list[socket.socket] = []
         self._lock = threading.Lock()
+        self.sent: list[bytearray] = []  # what each connection carried to the server
         self.up()
 
     def up(self) -> None:
@@ -118,13 +121,27 @@ class TcpProxy:
                 continue
             with self._lock:
                 self._conns += [client, upstream]
-            for a, b in ((client, upstream), (upstream, client)):
-                threading.Thread(target=self._pipe, args=(a, b), daemon=True).start()
+                seen = bytearray()
+                self.sent.append(seen)
+            for a, b, log in ((client, upstream, seen), (upstream, client, None)):
+                threading.Thread(target=self._pipe, args=(a, b, log), daemon=True).start()
+
+    def requests(self) -> list[tuple[str, str]]:
+        """(method, path) of every request the client sent through, connection by connection
+        (compact JSON bodies hold no CRLF, so a request line is unmistakable)."""
+        with self._lock:
+            streams = [bytes(s) for s in self.sent]
+        found = []
+        for stream in streams:
+            found += [(m.decode(), p.decode()) for m, p in _REQUEST_LINE.findall(stream)]
+        return found
 
     @staticmethod
-    def _pipe(src: socket.socket, dst: socket.socket) -> None:
+    def _pipe(src: socket.socket, dst: socket.socket, log: bytearray | None = None) -> None:
         try:
             while data := src.recv(65536):
+                if log is not None:
+                    log += data
                 dst.sendall(data)
         except OSError:
             pass

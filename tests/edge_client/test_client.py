@@ -21,7 +21,11 @@ class Handler(BaseHTTPRequestHandler):
     def _answer(self) -> None:
         length = int(self.headers.get("Content-Length") or 0)
         body = json.loads(self.rfile.read(length)) if length else None
-        self.server.log.append((self.command, self.path, self.headers.get("If-None-Match"), body))
+        # The conditional header a test watches: the poll's If-None-Match unless it says.
+        watched = self.headers.get(getattr(self.server, "log_header", "If-None-Match"))
+        if self.path.endswith("/commands/"):
+            watched = self.headers.get("If-None-Match")
+        self.server.log.append((self.command, self.path, watched, body))
         status, headers, payload = self.server.respond(self.command, self.path, body, self.headers)
         data = json.dumps(payload).encode() if payload is not None else b""
         self.send_response(status)
@@ -223,3 +227,114 @@ def test_check_names_the_link_that_fails(server, capsys):
     out = capsys.readouterr().out
     assert "autopilot: FAILED  no HEARTBEAT within 1 s on udpout:127.0.0.1:9" in out
     assert "server: FAILED" in out and "refused the vessel key (HTTP 401" in out
+
+
+# --- one exchange per period: the telemetry answer carries the command list ---
+
+HOLD = {"uid": "c1", "kind": "hold", "params": {}, "created_at": "2026-11-23T10:00:00Z",
+        "expires_at": None}  # fmt: skip
+
+
+def exchanging(method, path, body, headers):
+    """A server that answers X-Commands-ETag: the list (one hold) until the boat holds "v2"."""
+    if path.endswith("/telemetry/") and headers.get("X-Commands-ETag") is not None:
+        answer = {"accepted": len(body["fixes"]), "duplicates": 0, "rejected": []}
+        answer["commands_etag"] = '"v2"'
+        if headers["X-Commands-ETag"] != '"v2"':
+            answer["commands"] = [HOLD]
+        return 200, {}, answer
+    if path.endswith("/commands/"):
+        if headers.get("If-None-Match") == '"v2"':
+            return 304, {"ETag": '"v2"'}, None
+        return 200, {"ETag": '"v2"'}, {"commands": [HOLD]}
+    return accept_all(method, path, body, headers)
+
+
+def exchange_tags(server) -> list:
+    return [h for m, p, h, _ in server.log if p.endswith("/telemetry/")]
+
+
+def polls(server) -> int:
+    return sum(p.endswith("/commands/") for m, p, *_ in server.log)
+
+
+def test_a_boat_that_reports_every_round_takes_its_commands_without_polling(client, server):
+    server.respond = exchanging
+    server.log_header = "X-Commands-ETag"
+    for n in range(3):
+        client.outbox.add_fix(fix(n))
+        client.uplink_once(n * 100.0)  # every round past its poll's due time
+    assert polls(server) == 0
+    assert exchange_tags(server) == ['""', '"v2"', '"v2"']  # none held, then the one given
+    assert client.executor._queue.qsize() == 1
+    assert client.outbox.count("fix") == 0
+
+
+def test_a_round_with_nothing_to_send_polls(client, server):
+    server.respond = exchanging
+    server.log_header = "X-Commands-ETag"
+    client.outbox.add_fix(fix(1))
+    client.uplink_once(0.0)
+    client.uplink_once(5.0)  # nothing queued, the poll not due yet (10 s)
+    assert polls(server) == 0
+    client.uplink_once(10.5)
+    assert polls(server) == 1
+    # The poll sends the tag the telemetry answer gave: nothing new, a 304 from a real server.
+    assert [h for m, p, h, _ in server.log if p.endswith("/commands/")] == ['"v2"']
+    assert client.etag == '"v2"'
+
+
+def test_an_older_server_gets_the_poll_as_ever(client, server):
+    """Its answer has no commands_etag: the header was not understood."""
+    client.outbox.add_fix(fix(1))
+    client.uplink_once(0.0)
+    client.outbox.add_fix(fix(2))
+    client.uplink_once(20.0)
+    assert polls(server) == 2
+
+
+def test_with_the_exchange_off_no_header_is_sent(client, server):
+    server.respond = exchanging
+    server.log_header = "X-Commands-ETag"
+    client.exchange = False
+    client.outbox.add_fix(fix(1))
+    client.uplink_once(0.0)
+    assert exchange_tags(server) == [None]
+    assert polls(server) == 1
+
+
+def test_a_round_just_before_the_next_fix_waits_for_it_once_rather_than_poll(client, server):
+    """Sampling and uplink on clocks of their own (10 s each by default): a round that comes
+    just before its fix puts itself after the fix, so the exchange still saves the poll."""
+    server.respond = exchanging
+    client.outbox.add_fix(fix(1))
+    client.uplink_once(0.0)  # an exchange: the next round is due at 10
+    client._sampled_at = 0.1  # the fix of 0.1 went; the next one comes at 10.1
+    client.uplink_once(10.0)  # not a poll now: a round at 10.1 + 2.5 (a quarter period late)
+    assert polls(server) == 0 and client._next_poll == pytest.approx(12.6)
+    client.outbox.add_fix(fix(2))
+    client._sampled_at = 10.1
+    client.uplink_once(10.3)
+    assert polls(server) == 0 and len(telemetry_posts(server)) == 2
+    client.uplink_once(20.3)  # no fix since 10.1 (the autopilot went silent): a poll
+    assert polls(server) == 1
+    client._sampled_at = 20.5  # a fix due at 30.5...
+    client.uplink_once(30.3)  # ...so this round waits for it, until 33.0
+    assert polls(server) == 1 and client._next_poll == pytest.approx(33.0)
+    client.uplink_once(33.0)  # it is not there: a poll, never a second wait in a row
+    assert polls(server) == 2
+
+
+def test_a_round_sends_what_was_queued_when_it_read_and_no_more(client, server):
+    """A fix sampled during the round's post waits for the next round: one request a round."""
+    client.outbox.add_fix(fix(1))
+    real_send = client._send_fixes
+
+    def send_while_a_fix_comes(items):
+        client.outbox.add_fix(fix(2))  # sampled while the post is on its way
+        return real_send(items)
+
+    client._send_fixes = send_while_a_fix_comes
+    client.flush_fixes()
+    assert telemetry_posts(server) == [[fix(1)]]
+    assert client.outbox.count("fix") == 1

@@ -124,10 +124,14 @@ def test_every_batch_uploads_schema_is_the_contracts_answer() -> None:
     from drf_spectacular.generators import SchemaGenerator
 
     from edge_client.contract.batch import KEYS
+    from edge_client.contract.exchange import COMMANDS_KEY, ETAG_KEY
 
     components = SchemaGenerator().get_schema(public=True)["components"]["schemas"]
-    for name in ("IngestResult", "CommandReportResult", "SmsUploadResult"):
+    for name in ("CommandReportResult", "SmsUploadResult"):
         assert tuple(components[name]["properties"]) == KEYS, name
+    # The telemetry answer: the contract's, then the command list's exchange when asked for.
+    assert set(components["IngestResult"]["properties"]) == {*KEYS, ETAG_KEY, COMMANDS_KEY}
+    assert set(components["IngestResult"]["required"]) == set(KEYS)
 
 
 def test_backoff_doubles_up_to_its_cap() -> None:

@@ -274,3 +274,44 @@ def test_the_f2414_modem_path_through_a_pty(live_server, boat, rig, tmp_path):
         assert stop(rig.edge) == 0
     finally:
         modem.close()
+
+
+@pytest.mark.parametrize("exchange", [True, False], ids=["exchange", "polls (exchange off)"])
+def test_a_boat_reporting_every_round_never_polls_and_gets_a_command_within_a_round(
+    live_server, boat, rig, tmp_path, exchange
+):
+    """One exchange per period (docs/api.md): the telemetry answers carry the command list,
+    so once fixes flow every uplink round is one POST; a command queued meanwhile is handed
+    over (marked sent) by the next round's answer. With the exchange off, the same boat polls
+    every round (and the proxy is seen to count polls)."""
+    vessel, key = boat
+    round_s = 1.0  # several fixes (every PERIOD) in each round: no round without a report
+    config = tmp_path / "edge.toml"
+    config.write_text(f"[commands]\nexchange = {str(exchange).lower()}\n")
+    proxy = TcpProxy(("127.0.0.1", urlsplit(live_server.url).port))
+    rig.sim()
+    rig.client(
+        f"http://127.0.0.1:{proxy.port}", key, "--poll-period", str(round_s),
+        "--telemetry-period", str(round_s), "--config", str(config),
+    )  # fmt: skip
+    try:
+        wait_until(lambda: Fix.objects.filter(vessel=vessel).count() >= 3, 20, "fixes flowing")
+        time.sleep(round_s)  # the round under way when the first fix landed is over
+        before = len(proxy.requests())
+        command = command_enqueue(vessel=vessel, kind="hold", params={}, created_by="test")
+        wait_until(lambda: command_status(command) != "queued", 10, "the hold handed over")
+        handed_after = (command.sent_at - command.created_at).total_seconds()
+        wait_until(lambda: command_status(command) == "done", 20, "the hold done")
+        time.sleep(3 * round_s)
+        during = proxy.requests()[before:]
+        assert stop(rig.edge) == 0
+    finally:
+        proxy.down()
+    telemetry = [r for r in during if r == ("POST", "/api/v1/boat/telemetry/")]
+    polls = [r for r in during if r == ("GET", "/api/v1/boat/commands/")]
+    assert len(telemetry) >= 4, during
+    assert (polls == []) if exchange else (len(polls) >= 4), (during, rig.log()[-2000:])
+    assert ("POST", f"/api/v1/boat/commands/{command.uid}/ack/") in during
+    # Within one round (and the request's own time on a shared test machine); by design at
+    # most one round and a quarter (a round waiting for a fix a little late).
+    assert handed_after <= round_s + 0.5, handed_after

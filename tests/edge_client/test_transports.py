@@ -67,6 +67,21 @@ def test_http_posts_json_with_the_key(http_server):
     assert json.loads(body) == {"fixes": [{"lat": 1}]}
 
 
+def test_http_sends_only_the_headers_the_server_needs(http_server):
+    """Every byte is paid for on 3G: no User-Agent, Accept, Accept-Encoding or Connection
+    (requests, urllib3 and http.client each add some by default)."""
+    transport = HttpTransport(base_url=url(http_server), key="k1", backoff_s=0)
+    transport.post_json("/t/", {"fixes": []}, {"X-Commands-ETag": '"c1.2"'})
+    transport.get("/c/", '"c1.2"')
+    transport.get("/c/")
+    names = [list(headers) for _, _, headers, _ in http_server.requests]
+    assert names == [
+        ["Host", "Authorization", "Content-Type", "X-Commands-ETag", "Content-Length"],
+        ["Host", "Authorization", "If-None-Match"],
+        ["Host", "Authorization"],
+    ]
+
+
 def test_http_get_sends_if_none_match_and_takes_a_304(http_server):
     http_server.script = [
         (200, {"ETag": '"v1"'}, b'{"commands": []}'),
@@ -194,6 +209,9 @@ def test_modem_writes_the_trigger_then_a_correct_request():
     assert b"\r\nAuthorization: Api-Key k9\r\n" in request
     assert b"\r\nContent-Length: 12\r\n" in request
     assert request.endswith(b'\r\n\r\n{"fixes":[]}')
+    names = [line.split(b":")[0] for line in request.split(b"\r\n\r\n")[0].split(b"\r\n")[1:]]
+    # Connection: close is the modem's: one exchange per connection (transports/modem.py).
+    assert names == [b"Host", b"Connection", b"Authorization", b"Content-Type", b"Content-Length"]
 
 
 def test_modem_reassembles_an_answer_split_across_reads():

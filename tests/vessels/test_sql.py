@@ -12,7 +12,12 @@ from tests.support import BASE
 from vessels import sql
 from vessels.keys import hash_key
 from vessels.models import Vessel
-from vessels.services import vessel_key_issue, vessel_key_revoke, vessel_key_touch
+from vessels.services import (
+    vessel_bump_commands_version,
+    vessel_key_issue,
+    vessel_key_revoke,
+    vessel_key_touch,
+)
 
 
 def test_the_key_lookup_loads_the_key_and_its_vessel_in_one_statement(vessel_a: Vessel) -> None:
@@ -65,3 +70,11 @@ def test_the_statement_form_takes_a_further_condition(vessel_a: Vessel) -> None:
         cursor.execute(statement, params)
     vessel = Vessel.objects.get(pk=vessel_a.pk)
     assert vessel.last_seen_at == BASE and vessel.last_fix_at is None  # the condition failed
+
+
+def test_the_commands_version_is_read_as_stored(vessel_a: Vessel) -> None:
+    assert sql.commands_version(vessel_a.pk) == 0
+    vessel_bump_commands_version(vessel_id=vessel_a.pk)
+    vessel_bump_commands_version(vessel_id=vessel_a.pk)
+    assert sql.commands_version(vessel_a.pk) == 2
+    assert sql.commands_version(vessel_a.pk + 1000) == 0  # no such vessel

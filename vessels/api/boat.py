@@ -72,11 +72,15 @@ class AwareDateTimeField(serializers.DateTimeField):
         return super().to_internal_value(value)
 
 
-def batch_answer_schema(name: str) -> serializers.Serializer:
-    """The API schema of a batch upload's answer (edge_client.contract.batch), named ``name``."""
+def batch_answer_schema(
+    name: str, extra: dict[str, serializers.Field] | None = None
+) -> serializers.Serializer:
+    """The API schema of a batch upload's answer (edge_client.contract.batch), named ``name``,
+    with the ``extra`` fields an endpoint may add after the contract's."""
     counts = (serializers.IntegerField(), serializers.IntegerField())
     rejected = serializers.ListField(child=serializers.DictField())
-    return inline_serializer(name, dict(zip(batch.KEYS, (*counts, rejected), strict=True)))
+    fields = dict(zip(batch.KEYS, (*counts, rejected), strict=True))
+    return inline_serializer(name, {**fields, **(extra or {})})
 
 
 def telem_ack(success: bool, message: str) -> list[dict[str, str]]:

@@ -1,0 +1,47 @@
+"""One exchange per period (docs/api.md#one-exchange-per-period): the telemetry post's answer
+carries the vessel's command list when it changed since the version the boat holds.
+
+The boat sends the command poll's ETag it holds in :data:`HEADER` with its batch of fixes
+(:data:`NONE_HELD` before it has one). The server then adds :data:`ETAG_KEY` (the list's ETag
+now) to the batch answer, and :data:`COMMANDS_KEY` (exactly the poll's ``commands``) only when
+that ETag differs from the one sent. A post without the header is answered as it always was,
+so an older boat sees no change; an answer without :data:`ETAG_KEY` comes from an older server,
+and the boat keeps polling. Pure: both sides import it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+# A custom request header: If-None-Match would make the POST itself conditional (RFC 9110
+# §13.1.2: a 412 instead of storing the fixes).
+HEADER = "X-Commands-ETag"
+# The header as Django's request.META names it.
+META_KEY = "HTTP_X_COMMANDS_ETAG"
+# "I hold no list yet": a valid entity-tag that no list ever has.
+NONE_HELD = '""'
+# A held ETag longer than this is no ETag of ours ('"c<vessel>.<version>"'): taken as none held.
+MAX_HELD = 64
+ETAG_KEY = "commands_etag"
+COMMANDS_KEY = "commands"
+
+
+def held_etag(value: str | None) -> str:
+    """What the boat sends in :data:`HEADER`: the ETag it holds, or :data:`NONE_HELD`."""
+    return value or NONE_HELD
+
+
+def list_in_answer(answer: Any) -> tuple[str, list[Any] | None] | None:
+    """(the list's ETag now, its commands or None when unchanged) from a telemetry answer, or
+    None when the answer carries no exchange (an older server) or a malformed one."""
+    if not isinstance(answer, dict):
+        return None
+    etag = answer.get(ETAG_KEY)
+    if not isinstance(etag, str) or not etag:
+        return None
+    if COMMANDS_KEY not in answer:
+        return etag, None
+    commands = answer[COMMANDS_KEY]
+    if not isinstance(commands, list):
+        return None
+    return etag, commands
