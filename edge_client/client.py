@@ -31,13 +31,13 @@ from edge_client.contract import exchange
 from edge_client.contract.backoff import after_failures
 from edge_client.contract.status import Status
 from edge_client.executor import Executor
+from edge_client.fix_upload import TELEMETRY_PATH, post_fixes  # noqa: F401 (shore.py, cli.py)
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Item, Outbox, settle_fix_batch
 from edge_client.transports.base import Transport, TransportError
 
 log = logging.getLogger(__name__)
 
-TELEMETRY_PATH = "/api/v1/boat/telemetry/"
 COMMANDS_PATH = "/api/v1/boat/commands/"
 ACK_PATH = "/api/v1/boat/commands/{uid}/ack/"
 MAX_OUTAGE_BACKOFF_S = 60.0
@@ -277,11 +277,9 @@ class EdgeClient:
 
     def _send_fixes(self, items: list) -> bool:
         """POST one batch; True if every fix in it was settled (so the caller may go on)."""
-        ids = [i.id for i in items]
-        body = {"fixes": [i.body for i in items]}
         headers = {exchange.HEADER: exchange.held_etag(self.etag)} if self.exchange else None
         try:
-            response = self.transport.post_json(TELEMETRY_PATH, body, headers)
+            sent, response = post_fixes(self.transport, items, self.config.telemetry, headers)
         except TransportError as exc:
             if exc.status != 400:
                 raise
@@ -292,16 +290,16 @@ class EdgeClient:
                     "server refuses fix %s as malformed (%s); dropping it", items[0].body, exc
                 )
                 self.outbox.bump("rejected_fixes")
-                self.outbox.remove(ids)
+                self.outbox.remove([items[0].id])
                 return True
             half = len(items) // 2
             return self._send_fixes(items[:half]) and self._send_fixes(items[half:])
         answer = response.json()
         if self.exchange:
             self._take_exchange(answer)
-        settlement = settle_fix_batch(ids, answer)
+        settlement = settle_fix_batch([i.id for i in sent], answer)
         if settlement.keep_reason:
-            log.warning("keeping %d fixes: %s", len(ids), settlement.keep_reason)
+            log.warning("keeping %d fixes: %s", len(sent), settlement.keep_reason)
             return False
         for fix_id, errors in settlement.rejected:
             log.warning("server rejected fix %d: %s; dropping it", fix_id, errors)

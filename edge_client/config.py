@@ -16,6 +16,8 @@ Example file (every table and key is optional except where a value has no defaul
 
     [telemetry]
     period_s = 10
+    encoding = "json"                      # or "compact": a few bytes a fix (docs/links.md)
+    channels = [{name = "water_temp_c", step = 0.01}]   # compact readings; the shore's table
 
     [commands]
     poll_period_s = 10
@@ -43,7 +45,10 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
+from edge_client.contract.compact import Channel, CompactError, channels_from
+
 KEY_ENV = "SHORESIDE_EDGE_KEY"
+TELEMETRY_ENCODINGS = ("json", "compact")
 
 
 class ConfigError(ValueError):
@@ -75,6 +80,11 @@ class MavlinkConfig:
 class TelemetryConfig:
     period_s: float = 10.0
     batch_size: int = 50
+    # "compact": fixes go as application/vnd.shoreside.fixes, a few bytes each
+    # (edge_client/contract/compact.py), with readings by the channel table below, which the
+    # shore must list alike for the vessel; "json": as JSON.
+    encoding: str = "json"
+    channels: tuple[Channel, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -249,13 +259,33 @@ def _build_config(raw: dict[str, Any], source: str) -> Config:
     return Config(
         server=_build(ServerConfig, raw.get("server", {}), f"{source}: [server]"),
         mavlink=_build(MavlinkConfig, raw.get("mavlink", {}), f"{source}: [mavlink]"),
-        telemetry=_build(TelemetryConfig, raw.get("telemetry", {}), f"{source}: [telemetry]"),
+        telemetry=_build_telemetry(raw.get("telemetry", {}) or {}, source),
         commands=_build(CommandsConfig, raw.get("commands", {}), f"{source}: [commands]"),
         outbox=_build(OutboxConfig, raw.get("outbox", {}), f"{source}: [outbox]"),
         transport=transport,
         readings=_readings(raw.get("readings", {}), source),
         log_level=log_level,
     )
+
+
+def _build_telemetry(values: Any, source: str) -> TelemetryConfig:
+    """[telemetry], with its channel table: ``channels = [{name = "...", step = 0.1}, ...]``."""
+    where = f"{source}: [telemetry]"
+    if not isinstance(values, dict):
+        raise ConfigError(f"{where} must be a table")
+    values = dict(values)
+    table = values.pop("channels", [])
+    telemetry = _build(TelemetryConfig, values, where, skip={"channels"})
+    if telemetry.encoding not in TELEMETRY_ENCODINGS:
+        known = ", ".join(TELEMETRY_ENCODINGS)
+        raise ConfigError(f"{where} encoding: {telemetry.encoding!r} is not one of {known}")
+    if not isinstance(table, list):
+        raise ConfigError(f"{where} channels: expected a list of {{name, step}} tables")
+    try:
+        channels = tuple(channels_from(table))
+    except CompactError as exc:
+        raise ConfigError(f"{where} channels: {exc}") from None
+    return replace(telemetry, channels=channels)
 
 
 def _build_transport(values: Any, source: str) -> TransportConfig:

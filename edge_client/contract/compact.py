@@ -160,7 +160,7 @@ def encode(
         raise CompactError(f"at most {MAX_FIXES} fixes per payload")
     index = {c.name: i for i, c in enumerate(channels)}
     quantised = [_quantise(i, f, channels, index, drop_unknown) for i, f in enumerate(fixes)]
-    quantised.sort(key=lambda q: q.t)
+    quantised.sort(key=lambda q: q.t)  # stable: payload_order's order
     has_readings = any(q.readings for q in quantised)
     base = quantised[0].t
     w = BitWriter()
@@ -169,6 +169,15 @@ def encode(
     head = HEADER.pack(MARK, FLAG_READINGS if has_readings else 0, table_id(channels), base)
     body = head + w.bytes()
     return body + crc16(body).to_bytes(CRC_BYTES, "big")
+
+
+def payload_order(fixes: Sequence[Mapping[str, Any]]) -> list[int]:
+    """The indices of ``fixes`` in the order a payload holds them (by time to the second,
+    stable), which is the order of the answer's ``rejected`` indices: a sender that wants
+    them to be its own sorts its batch so first. CompactError for a fix without a time."""
+    times = [round(_seconds(i, f.get("time") if isinstance(f, Mapping) else None))
+             for i, f in enumerate(fixes)]  # fmt: skip
+    return sorted(range(len(fixes)), key=times.__getitem__)
 
 
 def _quantise(

@@ -1,4 +1,5 @@
-"""The transport interface: ``post_json(path, body, headers)`` and ``get(path, etag)``.
+"""The transport interface: ``post_json(path, body, headers)``, ``post_bytes(path, data,
+content_type, headers)`` and ``get(path, etag)``.
 
 A transport returns a :class:`Response` for 2xx and 304 answers and raises
 :class:`TransportError` for everything else. ``permanent=True`` means "sending the same request
@@ -59,6 +60,10 @@ class Response:
 class Transport(Protocol):
     def post_json(
         self, path: str, body: Any, headers: dict[str, str] | None = None
+    ) -> Response: ...
+
+    def post_bytes(
+        self, path: str, data: bytes, content_type: str, headers: dict[str, str] | None = None
     ) -> Response: ...
 
     def get(self, path: str, etag: str | None = None) -> Response: ...

@@ -50,9 +50,12 @@ class HttpTransport:
 
     def post_json(self, path: str, body: Any, headers: dict[str, str] | None = None) -> Response:
         data = json.dumps(body, separators=(",", ":"), allow_nan=False).encode()
-        return self._request(
-            "POST", path, {"Content-Type": "application/json", **(headers or {})}, data
-        )
+        return self.post_bytes(path, data, "application/json", headers)
+
+    def post_bytes(
+        self, path: str, data: bytes, content_type: str, headers: dict[str, str] | None = None
+    ) -> Response:
+        return self._request("POST", path, {"Content-Type": content_type, **(headers or {})}, data)
 
     def get(self, path: str, etag: str | None = None) -> Response:
         headers = {"If-None-Match": etag} if etag else {}

@@ -120,6 +120,18 @@ def test_key_comes_from_key_file_or_environment(tmp_path, monkeypatch):
             "needs both message and field",
         ),
         ("[server\n", "not valid TOML"),
+        (
+            '[server]\nurl = "http://h"\nkey = "k"\n[telemetry]\nencoding = "cbor"\n',
+            r"\[telemetry\] encoding: 'cbor' is not one of json, compact",
+        ),
+        (
+            '[server]\nurl = "http://h"\nkey = "k"\n[telemetry]\nchannels = [{step = 1}]\n',
+            r"\[telemetry\] channels: a channel table is a list of \{name, step\}",
+        ),
+        (
+            '[server]\nurl = "http://h"\nkey = "k"\n[telemetry]\nchannels = "t"\n',
+            r"\[telemetry\] channels: expected a list",
+        ),
     ],
 )
 def test_bad_configs_say_what_is_wrong(tmp_path, text, message):
@@ -217,3 +229,16 @@ def test_cli_takes_key_file_and_says_to_prefer_it_over_key(tmp_path):
     )  # fmt: skip
     # The key came from the file: what is left wrong is the URL, not a missing key.
     assert result.returncode == 2 and "not an http:// or https:// URL" in result.stderr
+
+
+def test_compact_fixes_and_their_channel_table(tmp_path):
+    text = (
+        '[server]\nurl = "http://h"\nkey = "k"\n[telemetry]\nencoding = "compact"\n'
+        'channels = [{name = "humidity_pct", step = 0.1}, {name = "depth_m"}]\n'
+    )
+    telemetry = load_config(write(tmp_path, text)).telemetry
+    assert telemetry.encoding == "compact"
+    assert [(c.name, c.step) for c in telemetry.channels] == [
+        ("humidity_pct", 0.1),
+        ("depth_m", 0.01),
+    ]
