@@ -10,7 +10,8 @@ Runs, side by side for ``--duration`` seconds (after a short warm-up):
   server that speaks the boat API (ETag/304 and the telemetry answer's command exchange
   included) and counts every byte in and out; at each cadence twice: this client, and either
   this client with ``[commands] exchange = false`` or, with ``--before REF`` (e.g. ``main``),
-  the edge client of that git ref, unpacked with ``git archive``;
+  the edge client of that git ref, unpacked with ``git archive``; and a third time this client
+  with ``[telemetry] encoding = "compact"`` (its autopilot readings as the channel table);
 - the original SPAB client as a baseline (docs/benchmarks.md): every 2 s one JSON fix per POST to
   ``data.cgi`` and a full GET of ``requestCommands.cgi``, one TCP connection per request as
   through the F2414 modem, with minimal hand-written headers (generous to the baseline);
@@ -47,7 +48,12 @@ import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
+from edge_client.contract import compact
+from edge_client.contract.fix import AUTOPILOT_READINGS
+
 ROOT = Path(__file__).resolve().parents[1]
+# The compact variant's channel table: the readings the edge client takes from the autopilot.
+AUTOPILOT_CHANNELS = [compact.Channel(name, 1) for name in AUTOPILOT_READINGS]
 TELEMETRY_PERIOD_S = 2.0
 EXCHANGE_HEADER = "X-Commands-ETag"
 SIM_RATE_HZ = 4.0
@@ -96,7 +102,10 @@ class BoatApi(BaseHTTPRequestHandler):
 
     def _body(self) -> object:
         length = int(self.headers.get("Content-Length") or 0)
-        return json.loads(self.rfile.read(length)) if length else None
+        raw = self.rfile.read(length) if length else b""
+        if self.headers.get("Content-Type") == compact.CONTENT_TYPE:
+            return {"fixes": compact.decode(raw, AUTOPILOT_CHANNELS)}
+        return json.loads(raw) if raw else None
 
     def _send(self, status: int, payload: object | None, headers: dict | None = None) -> None:
         data = b"" if payload is None else json.dumps(payload).encode()
@@ -198,7 +207,7 @@ class EdgeRun:
 
     def __init__(
         self, label: str, poll_s: float, workdir: Path, *, root: Path = ROOT,
-        exchange: bool | None = None,
+        exchange: bool | None = None, encoding: str | None = None,
     ) -> None:  # fmt: skip
         self.label = label
         self.server = serve()
@@ -206,10 +215,15 @@ class EdgeRun:
         self.sim = spawn(["-m", "edge_client.sim", "--listen", f"udpin:127.0.0.1:{port}",
                           "--rate", str(SIM_RATE_HZ), "--prearm-delay", "0"])  # fmt: skip
         name = f"{label.split(':')[0].replace(' ', '-')}-{poll_s}"
-        config = []
+        config, text = [], ""
         if exchange is not None:
-            path = workdir / f"{name}.toml"
-            path.write_text(f"[commands]\nexchange = {str(exchange).lower()}\n")
+            text += f"[commands]\nexchange = {str(exchange).lower()}\n"
+        if encoding is not None:
+            table = ", ".join(f'{{name = "{c.name}", step = 1}}' for c in AUTOPILOT_CHANNELS)
+            text += f'[telemetry]\nencoding = "{encoding}"\nchannels = [{table}]\n'
+        if text:
+            path = workdir / f"{name}-{encoding or 'json'}.toml"
+            path.write_text(text)
             config = ["--config", str(path)]
         self.client = spawn([
             "-m", "edge_client", "run", *config, "--server",
@@ -416,6 +430,12 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 runs.append(EdgeRun(f"exchange off: {cadence}", poll_s, Path(tmp), exchange=False))
             runs.append(EdgeRun(f"this client: {cadence}", poll_s, Path(tmp), exchange=True))
+        compact_runs = [
+            EdgeRun(f"this client, compact fixes: {cadence}", poll_s, Path(tmp), exchange=True,
+                    encoding="compact")
+            for poll_s, cadence in ((2.0, "uplink 2 s (as SPAB)"), (10.0, "uplink 10 s (default)"))
+        ]  # fmt: skip
+        runs += compact_runs
         spab = SpabClient()
         try:
             time.sleep(WARMUP_S)
@@ -456,7 +476,9 @@ def main(argv: list[str] | None = None) -> int:
             f"{per_hour(r['fixes'], r['wall']):8.0f} {total / base_total:8.0%}"
         )
     print()
-    for before, after in zip(results[::2], results[1::2], strict=True):
+    paired, compacted = results[:-2], results[-2:]
+    for before, after in [*zip(paired[::2], paired[1::2], strict=True),
+                          *zip(paired[1::2], compacted, strict=True)]:  # fmt: skip
         ratio = (after["up"] + after["down"]) / after["wall"]
         ratio /= (before["up"] + before["down"]) / before["wall"]
         print(f"{after['label']}: {ratio:.0%} of the bytes of {before['label']}")

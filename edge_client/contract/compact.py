@@ -111,7 +111,8 @@ class Channel:
 
 def table_id(channels: Sequence[Channel]) -> int:
     """One byte that differs, almost always, between two different channel tables."""
-    text = "\n".join(f"{c.name}={c.step!r}" for c in channels)
+    # float(): a step of 1 in one side's JSON and 1.0 in the other's TOML are one table.
+    text = "\n".join(f"{c.name}={float(c.step)!r}" for c in channels)
     return zlib.crc32(text.encode()) & 0xFF
 
 

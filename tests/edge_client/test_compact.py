@@ -184,6 +184,14 @@ def test_readings_written_with_another_channel_table_are_refused_not_misread() -
     assert decode(encode(track(5, readings=False)), CHANNELS)
 
 
+def test_a_table_is_the_same_whether_its_steps_were_written_1_or_1_0() -> None:
+    # The shore's table comes from JSON, the boat's from TOML: 1 and 1.0 must agree.
+    assert compact.table_id([Channel("armed", 1)]) == compact.table_id([Channel("armed", 1.0)])
+    assert compact.table_id([Channel("armed", 1)]) != compact.table_id([Channel("armed", 2)])
+    fixes = [{"time": T0, "lat": 0, "lon": 0, "readings": {"armed": 1}}]
+    assert decode(encode(fixes, [Channel("armed", 1)]), [Channel("armed", 1.0)])
+
+
 def test_a_later_version_is_named() -> None:
     payload = bytearray(encode(track(2), CHANNELS))
     payload[0] = 0xA2
