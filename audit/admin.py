@@ -63,8 +63,22 @@ class ViaFilter(DistinctValueFilter):
     parameter_name = field = "via"
 
 
+class LogAdmin(admin.ModelAdmin):
+    """A log in the admin (the audit log, the SMS log, the SBD log, link counts): written by
+    the services that did the work; nobody adds, edits or removes an entry here."""
+
+    def has_add_permission(self, request: HttpRequest) -> bool:
+        return False
+
+    def has_change_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        return False
+
+    def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        return False
+
+
 @admin.register(AuditEntry)
-class AuditEntryAdmin(admin.ModelAdmin):
+class AuditEntryAdmin(LogAdmin):
     list_display = ["at", "who", "action", "subject", "vessel", "via", "ip"]
     list_filter = [ActionFilter, "actor_kind", ViaFilter, VesselFilter]
     date_hierarchy = "at"
@@ -98,13 +112,3 @@ class AuditEntryAdmin(admin.ModelAdmin):
     def detail_shown(self, entry: AuditEntry) -> SafeString:
         text = json.dumps(entry.detail, indent=2, ensure_ascii=False, sort_keys=True)
         return format_html('<pre style="margin:0">{}</pre>', text)
-
-    # A log is written by the services that did the work; nobody adds, edits or removes it.
-    def has_add_permission(self, request: HttpRequest) -> bool:
-        return False
-
-    def has_change_permission(self, request: HttpRequest, obj: Any = None) -> bool:
-        return False
-
-    def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
-        return False

@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from django.contrib import admin
-from django.http import HttpRequest
 
+from audit.admin import LogAdmin
 from sbd.models import SbdMessage
 from sbd.rockblock import credits
 
 
 @admin.register(SbdMessage)
-class SbdMessageAdmin(admin.ModelAdmin):
+class SbdMessageAdmin(LogAdmin):
     list_display = [
         "received_at",
         "direction",
@@ -40,12 +38,3 @@ class SbdMessageAdmin(admin.ModelAdmin):
     @admin.display(description="payload (hex)")
     def payload_hex(self, message: SbdMessage) -> str:
         return bytes(message.payload).hex(" ") or "–"
-
-    def has_add_permission(self, request: HttpRequest) -> bool:
-        return False
-
-    def has_change_permission(self, request: HttpRequest, obj: Any = None) -> bool:
-        return False
-
-    def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
-        return False

@@ -13,6 +13,7 @@ from django.urls import reverse
 from django.utils.html import format_html, format_html_join
 from django.utils.safestring import SafeString
 
+from audit.admin import LogAdmin
 from sms.errors import InvalidNumber
 from sms.models import AuthorisedNumber, Direction, SmsMessage
 from sms.services import (
@@ -104,7 +105,7 @@ class RepliesInline(admin.TabularInline):
 
 
 @admin.register(SmsMessage)
-class SmsMessageAdmin(admin.ModelAdmin):
+class SmsMessageAdmin(LogAdmin):  # the log stays (docs/sms.md#the-sms-log)
     """The SMS log: every message in and out, read-only, fast on a long history."""
 
     list_display = [
@@ -145,15 +146,6 @@ class SmsMessageAdmin(admin.ModelAdmin):
         "sent_at",
     ]
     readonly_fields = fields
-
-    def has_add_permission(self, request: HttpRequest) -> bool:
-        return False
-
-    def has_change_permission(self, request: HttpRequest, obj: Any = None) -> bool:
-        return False
-
-    def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
-        return False  # the log stays (docs/sms.md#the-sms-log)
 
     @admin.display(description="time", ordering="-created_at")
     def when(self, message: SmsMessage) -> SafeString:
