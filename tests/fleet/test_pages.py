@@ -35,6 +35,12 @@ def page_config(html: str, script_id: str) -> dict:
     return json.loads(html[start : html.index("</script>", start)])
 
 
+def fleet_map_scripts() -> str:
+    """The fleet map's own scripts: the map and its command actions."""
+    static = Path(__file__).resolve().parents[2] / "fleet/static/fleet"
+    return "".join((static / name).read_text() for name in ("fleet_map.js", "fleet_commands.js"))
+
+
 def test_the_admin_index_opens_on_the_fleet_map(operator_user: User) -> None:
     html = client_for(operator_user).get("/admin/").content.decode()
     assert 'id="fleet-map"' in html and "fleet/fleet_map.js" in html
@@ -69,7 +75,7 @@ def test_each_map_action_takes_its_input_the_way_its_catalog_params_ask() -> Non
         "min": 0,
         "max": 359,
     }
-    script = (Path(__file__).resolve().parents[2] / "fleet/static/fleet/fleet_map.js").read_text()
+    script = fleet_map_scripts()
     assert "359" not in script  # the typed heading's range comes with the action
     assert by_kind["light"]["input"] == "choice" and by_kind["light"]["choices"] == ["on", "off"]
     assert by_kind["hold"]["input"] == "none"
@@ -277,5 +283,5 @@ def test_the_fleet_map_takes_command_status_names_from_the_server(
         "unfinished": ["queued", "sent", "acknowledged"],
         "cancellable": ["queued", "sent"],
     }
-    script = (Path(__file__).resolve().parents[2] / "fleet/static/fleet/fleet_map.js").read_text()
+    script = fleet_map_scripts()
     assert not [s for s in Status if f'"{s.value}"' in script]  # no copy of the names left
