@@ -75,6 +75,9 @@ LAT_SCALE, LON_SCALE = LAT_MAX / 180, LON_MAX / 360
 HEADING_BITS = 9
 SPEED_STEP, BATTERY_STEP = 0.1, 0.01
 MAX_TIME = (1 << 32) - 1
+# A reading is at most this many of its steps from zero: the longest code a reader takes
+# (bits.MAX_PREFIX) holds it, so whatever encodes also decodes.
+MAX_READING_STEPS = 1 << 36
 SPEED_MAX = round(RANGES["speed_mps"][1] / SPEED_STEP)
 BATTERY_MAX = round(RANGES["battery_v"][1] / BATTERY_STEP)
 
@@ -254,7 +257,10 @@ def _readings(
         ok = isinstance(value, int | float) and not isinstance(value, bool)
         if not ok or not math.isfinite(value):
             raise CompactError(f"fix {i}: reading {name} must be a number")
-        out[index[name]] = round(value / channels[index[name]].step)
+        steps = value / channels[index[name]].step
+        if not abs(steps) < MAX_READING_STEPS:  # also inf: 1e308 / 0.01
+            raise CompactError(f"fix {i}: reading {name} is too large for its step")
+        out[index[name]] = round(steps)
     return out or None
 
 

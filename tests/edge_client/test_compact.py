@@ -161,6 +161,8 @@ def test_fixes_come_out_in_time_order_and_absent_fields_stay_absent() -> None:
         ([{"time": T0, "lat": 0, "lon": 0, "readings": {"salinity": 35}}], "salinity"),
         ([{"time": -1, "lat": 0, "lon": 0}], "time out of range"),
         (["a fix"], "fix 0: not an object"),
+        ([{"time": T0, "lat": 0, "lon": 0, "readings": {"depth_m": 1e308}}], "too large"),
+        ([{"time": T0, "lat": 0, "lon": 0, "readings": {"depth_m": -4e10}}], "too large"),
     ],
 )
 def test_what_cannot_be_encoded_is_refused_with_the_reason(fixes: list, said: str) -> None:
@@ -182,6 +184,18 @@ def test_readings_written_with_another_channel_table_are_refused_not_misread() -
         decode(payload)
     # Fixes without readings do not depend on the table.
     assert decode(encode(track(5, readings=False)), CHANNELS)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(allow_nan=False, allow_infinity=False), st.sampled_from(CHANNELS))
+def test_whatever_reading_encodes_also_decodes(value: float, channel: Channel) -> None:
+    fix = {"time": T0, "lat": 0, "lon": 0, "readings": {channel.name: value}}
+    try:
+        payload = encode([fix], CHANNELS)
+    except CompactError:
+        return
+    (out,) = decode(payload, CHANNELS)
+    assert abs(out["readings"][channel.name] - value) <= channel.step / 2 + abs(value) * 1e-12
 
 
 def test_a_table_is_the_same_whether_its_steps_were_written_1_or_1_0() -> None:
