@@ -33,11 +33,11 @@ import re
 from dataclasses import dataclass
 
 from sms.gsm7 import SMS_SEPTETS, septets, to_gsm7
+from vessels.display import KNOTS_PER_MPS
 
 NAME_MAX = 24
 STATE_MIN = 8
 ELLIPSIS = ".."
-KNOTS_PER_MPS = 3600 / 1852
 _SPACES = re.compile(r"\s+")
 
 

@@ -67,7 +67,7 @@ _KNOWN: dict[int, tuple[str, Retry, float]] = {
     33: ("antenna fault, unable to initiate call", Retry.NEVER, 0.0),
     34: ("radio is disabled, unable to initiate call (*Rn)", Retry.NEVER, 0.0),
     35: ("ISU is busy, unable to initiate call", Retry.RETRY, 0.0),
-    36: ("try later: must wait 3 minutes since the last registration", Retry.WAIT, 180.0),
+    36: ("try later: must wait 3 minutes since the last registration", Retry.WAIT, THREE_MINUTES_S),
     37: ("SBD service is temporarily disabled", Retry.WAIT, THREE_MINUTES_S),
     38: ("try later: traffic management period (+SBDLOE)", Retry.WAIT, THREE_MINUTES_S),
     64: ("band violation (transmit outside the permitted band)", Retry.NEVER, 0.0),
