@@ -41,7 +41,10 @@ def _totals(t: Totals) -> tuple[str, str, str]:
 
 def _per_fix(t: Totals) -> str:
     per = t.bytes_per_fix
-    return "–" if per is None else f"{per:.1f} B ({t.fixes_in} fixes)"
+    if per is None:
+        return "–"
+    size = f"{per:.1f} B" if per < 100 else f"{per:.0f} B"  # 4.2 B, 384 B: no false decimals
+    return f"{size} ({t.fixes_in} {'fix' if t.fixes_in == 1 else 'fixes'})"
 
 
 def _row(u: LinkUsage, now: dt.datetime) -> tuple[str, ...]:

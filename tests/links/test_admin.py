@@ -50,7 +50,7 @@ def test_the_block_shows_each_transport(vessel_a: Vessel) -> None:
         "4.2 B (80 fixes)",
     ]  # fmt: skip
     assert cells(html, "http")[:3] == ["HTTP", "0 s ago", "1 in / 1 out"]
-    assert cells(html, "http")[-1] == "12345.0 B (1 fixes)"
+    assert cells(html, "http")[-1] == "12345 B (1 fix)"
     assert cells(html, "sms") == ["SMS", "never", *["0 in / 0 out", "0 B in / 0 B out", "0"] * 2,
                                   "–"]  # fmt: skip
 
