@@ -40,6 +40,13 @@ class Command(models.Model):
     # Created on the vessel itself (a glider's SMS or admin) and reported up by it: the shore
     # only mirrors it, so never offers, supersedes or expires it (commands.services).
     reported = models.BooleanField(default=False)
+    # Urgent: also sent at once by the vessel's other links (SMS, Iridium SBD), whatever its
+    # HTTP link is doing (links.routing); otherwise those carry it only once it is silent.
+    urgent = models.BooleanField(
+        default=False,
+        help_text="Also send it at once by SMS or Iridium SBD, if the vessel has one, "
+        "not only when its HTTP link has gone silent.",
+    )
 
     class Meta:
         ordering = ["-created_at"]

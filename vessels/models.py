@@ -27,6 +27,8 @@ from vessels.missions import (
 OVERDUE_PERIODS = 3
 # An Iridium modem's IMEI: 15 digits, how the SBD provider names the vessel's modem.
 IMEI_VALIDATOR = RegexValidator(r"^[0-9]{15}\Z", "An IMEI is 15 digits.")
+# The vessel's own phone number, stored as the SMS log stores numbers: E.164.
+E164_VALIDATOR = RegexValidator(r"^\+[1-9][0-9]{6,14}\Z", "An E.164 number: + and 7-15 digits.")
 # Half the Earth's circumference: no two points are farther apart, so no limit needs more.
 MOVE_TO_MAX_LIMIT_M = 20_038_000
 
@@ -82,6 +84,16 @@ class Vessel(models.Model):
         validators=[IMEI_VALIDATOR],
         help_text="The IMEI of the vessel's Iridium SBD modem (15 digits): its messages "
         "through the SBD provider are filed under this vessel. Empty: none.",
+    )
+    # The vessel's own phone (a glider's SIM): the shore texts commands to it when its HTTP
+    # link is silent (links.routing). The shore's sender must be authorised on the vessel.
+    sms_number = models.CharField(
+        "SMS number",
+        max_length=20,
+        blank=True,
+        validators=[E164_VALIDATOR],
+        help_text="The vessel's own phone number, E.164 (+61412345678): commands go to it by "
+        "SMS when its HTTP link is silent, or when urgent. Empty: none.",
     )
     # Daily budgets per link (links app, alert rule kind "budget"): crossing one opens an alert.
     sbd_daily_credit_budget = models.PositiveIntegerField(
