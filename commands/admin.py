@@ -84,6 +84,9 @@ class CommandAdmin(admin.ModelAdmin):
         "acknowledged_at",
         "finished_at",
         "result_detail",
+        "urgent",
+        "relay",
+        "relayed_at",
     ]
 
     class Media:
@@ -131,6 +134,7 @@ class CommandAdmin(admin.ModelAdmin):
             *[n for names in form.param_fields.values() for n in names],
             "mission",
             "expires_at",
+            "urgent",
         ]
 
     def get_readonly_fields(self, request: HttpRequest, obj: Command | None = None) -> Any:
@@ -164,6 +168,7 @@ class CommandAdmin(admin.ModelAdmin):
             source=Source.ADMIN,
             created_by=request.user.get_username(),
             expires_at=form.cleaned_data.get("expires_at"),
+            urgent=form.cleaned_data.get("urgent", False),
         )
         for field in Command._meta.concrete_fields:
             setattr(obj, field.attname, getattr(created, field.attname))

@@ -60,7 +60,7 @@ class CommandForm(forms.ModelForm):
 
     class Meta:
         model = Command
-        fields = ["vessel", "kind", "expires_at"]
+        fields = ["vessel", "kind", "expires_at", "urgent"]
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)

@@ -21,6 +21,13 @@ class Source(models.TextChoices):
     VESSEL = "vessel", "Vessel"
 
 
+class Relay(models.TextChoices):
+    SMS = "sms", "SMS"
+    SBD = "sbd", "Iridium SBD"
+    # No link could carry it (no form for it there, no number, nothing configured).
+    NONE = "none", "none possible"
+
+
 class Command(models.Model):
     uid = models.UUIDField(default=uuid.uuid4, unique=True, editable=False)
     vessel = models.ForeignKey(Vessel, on_delete=models.CASCADE, related_name="commands")
@@ -47,6 +54,9 @@ class Command(models.Model):
         help_text="Also send it at once by SMS or Iridium SBD, if the vessel has one, "
         "not only when its HTTP link has gone silent.",
     )
+    # How the shore relayed it beside HTTP (links.routing, fleet.routing): once at most.
+    relay = models.CharField(max_length=4, choices=Relay.choices, blank=True)
+    relayed_at = models.DateTimeField(null=True, blank=True)
 
     class Meta:
         ordering = ["-created_at"]

@@ -26,6 +26,8 @@ from commands.admin import CommandAdmin, status_badge
 from commands.errors import CommandError
 from commands.models import Command, Source
 from commands.services import mission_send, mission_send_problems
+from fleet.relays import configured_senders
+from fleet.routing import routing_summary
 from links.display import links_html
 from sms.models import SmsMessage
 from telemetry.admin import channel_labels, readings_html
@@ -108,8 +110,11 @@ class FleetVesselAdmin(VesselAdmin):
 
     @admin.display(description="links")
     def links(self, vessel: Vessel) -> str:
-        """What each transport carried and cost (links app)."""
-        return "–" if vessel.pk is None else links_html(vessel.pk)
+        """What each transport carried and cost (links app), and where commands go now."""
+        if vessel.pk is None:
+            return "–"
+        route = routing_summary(vessel, configured_senders())
+        return format_html('<p class="routing">{}</p>{}', route, links_html(vessel.pk))
 
     class Media:
         css = {"all": ["commands/status.css"]}  # the recent commands' status badges

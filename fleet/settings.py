@@ -462,6 +462,11 @@ if SBD_HTTP_TIMEOUT_S <= 0 or SBD_MT_MAX_ATTEMPTS < 1:
 LINK_FLUSH_S = env_float("LINK_FLUSH_S", 10.0)
 if LINK_FLUSH_S < 0:
     raise ValueError("LINK_FLUSH_S must be 0 or more")
+# Per-vessel routing (manage.py run_links, fleet/routing.py): a pass every LINKS_ROUTE_PERIOD_S
+# relays queued commands by SMS or SBD when a vessel's HTTP link is silent or they are urgent.
+LINKS_ROUTE_PERIOD_S = env_float("LINKS_ROUTE_PERIOD_S", 15.0)
+if LINKS_ROUTE_PERIOD_S <= 0:
+    raise ValueError("LINKS_ROUTE_PERIOD_S must be positive")
 
 # Outgoing e-mail (Django's mail settings): alert notifications on e-mail channels.
 EMAIL_BACKEND = (

@@ -116,6 +116,7 @@ class VesselAdmin(admin.ModelAdmin):
                     "cruise_speed_mps",
                     "move_to_max_m",
                     "imei",
+                    "sms_number",
                     "notes",
                 ]
             },

@@ -14,7 +14,7 @@ from rest_framework.views import APIView
 from commands.models import Command, CommandEvent, Source
 from commands.selectors import command_by_uid
 from commands.services import command_cancel, command_enqueue
-from vessels.api.fields import StrictCharField
+from vessels.api.fields import StrictBooleanField, StrictCharField
 from vessels.permissions import CanViewVessels, ChangeModelPermissions, ModelPermissions
 from vessels.selectors import vessel_by_slug
 
@@ -45,6 +45,9 @@ class CommandSerializer(serializers.ModelSerializer):
             "acknowledged_at",
             "finished_at",
             "result_detail",
+            "urgent",
+            "relay",
+            "relayed_at",
             "events",
         ]
         read_only_fields = fields
@@ -66,6 +69,11 @@ class CommandCreateSerializer(serializers.Serializer):
     kind = StrictCharField()
     params = ParamsField(required=False, default=dict)
     expires_at = serializers.DateTimeField(required=False, allow_null=True)
+    urgent = StrictBooleanField(
+        required=False,
+        default=False,
+        help_text="also send it at once by the vessel's SMS or Iridium SBD link, if it has one",
+    )
     source = serializers.ChoiceField(
         [(s.value, s.label) for s in API_SOURCES],
         required=False,
@@ -109,6 +117,7 @@ class VesselCommandsView(generics.ListCreateAPIView):
             source=incoming.validated_data["source"],
             created_by=request.user.get_username(),
             expires_at=incoming.validated_data.get("expires_at"),
+            urgent=incoming.validated_data["urgent"],
         )
         return Response(CommandSerializer(command).data, status=status.HTTP_201_CREATED)
 

@@ -12,6 +12,7 @@ from commands.services.delivery import (
     command_claim_open,
     command_deliver_legacy,
     command_expire_due,
+    command_relay_claim,
     command_withdraw_queued,
 )
 from commands.services.enqueue import command_enqueue, command_validate, vessel_context
@@ -54,6 +55,7 @@ __all__ = [
     "command_mark_sent",
     "command_note",
     "command_record_reported",
+    "command_relay_claim",
     "command_reports_record",
     "command_validate",
     "command_withdraw_queued",

@@ -197,3 +197,16 @@ def command_deliver_legacy(*, vessel: Vessel, now: dt.datetime | None = None) ->
                     detail=LEGACY_DELIVERY_NOTE,
                 )
     return commands
+
+
+def command_relay_claim(
+    *, command: Command, relay: str, was: str = "", now: dt.datetime | None = None
+) -> bool:
+    """Mark ``command`` as relayed by ``relay`` (a Relay) if it still stands at ``was``; False
+    when another router got there first. Claimed before the send, so two routers never send
+    one command twice (at most once: a crash after the claim leaves it to HTTP)."""
+    now = now or timezone.now()
+    claimed = Command.objects.filter(pk=command.pk, relay=was).update(relay=relay, relayed_at=now)
+    if claimed:
+        command.relay, command.relayed_at = relay, now
+    return bool(claimed)

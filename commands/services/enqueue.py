@@ -86,6 +86,7 @@ def command_enqueue(
     now: dt.datetime | None = None,
     uid: uuid.UUID | None = None,
     audit_as: Mapping[str, Any] | None = None,
+    urgent: bool = False,
 ) -> Command:
     """Validate through the catalog and queue a command; raises CatalogError or CommandError.
 
@@ -116,6 +117,7 @@ def command_enqueue(
         created_by=created_by[:150],
         expires_at=expires_at,
         status=Status.QUEUED,
+        urgent=urgent,
     )
     if uid is not None:
         command.uid = uid
@@ -149,7 +151,11 @@ def _audit_enqueued(
         "subject_type": "command",
         "subject_id": command.uid,
         "subject": f"{command.kind} → {vessel.name}",
-        "detail": {"kind": command.kind, "params": _params_in_short(command.params)},
+        "detail": {
+            "kind": command.kind,
+            "params": _params_in_short(command.params),
+            **({"urgent": True} if command.urgent else {}),
+        },
     }
     if audit_as:
         entry |= audit_as

@@ -66,6 +66,16 @@ def test_a_created_command_records_whether_it_came_from_a_script_or_the_map(
     assert command.events.get().detail == f"via {source}"
 
 
+def test_a_created_command_may_be_urgent(operator: APIClient, vessel_a: Vessel) -> None:
+    response = operator.post(commands_url(), {"kind": "hold", "urgent": True}, format="json")
+    assert response.status_code == 201
+    body = response.json()
+    assert (body["urgent"], body["relay"], body["relayed_at"]) == (True, "", None)
+    assert Command.objects.get().urgent
+    plain = operator.post(commands_url(), {"kind": "hold"}, format="json").json()
+    assert plain["urgent"] is False
+
+
 def test_a_created_command_may_carry_its_own_expiry(operator: APIClient, vessel_a: Vessel) -> None:
     expires = dt.datetime.now(dt.UTC).replace(microsecond=0) + dt.timedelta(hours=1)
     response = operator.post(
@@ -103,6 +113,8 @@ def test_a_created_command_may_carry_its_own_expiry(operator: APIClient, vessel_
         ("spab", {"params": {}}, "kind", "This field is required."),
         ("spab", {"kind": 0, "params": {}}, "kind", "Not a valid string."),
         ("spab", {"kind": "hold", "expires_at": "soon"}, "expires_at", "Datetime has wrong"),
+        ("spab", {"kind": "hold", "urgent": "yes"}, "urgent", "Must be a valid boolean."),
+        ("spab", {"kind": "hold", "urgent": 1}, "urgent", "Must be a valid boolean."),
         (
             "spab",
             {"kind": "hold", "expires_at": "2020-01-01T00:00:00Z"},

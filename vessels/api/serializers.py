@@ -23,6 +23,7 @@ class VesselSerializer(serializers.ModelSerializer):
             "cruise_speed_mps",
             "move_to_max_m",
             "imei",
+            "sms_number",
             "status",
             "last_seen_at",
             "last_fix_at",
@@ -41,7 +42,7 @@ class VesselUpdateSerializer(serializers.ModelSerializer):
 
     class Meta:
         model = Vessel
-        fields = ["move_to_max_m", "imei"]
+        fields = ["move_to_max_m", "imei", "sms_number"]
 
     def validate_imei(self, value: str | None) -> str | None:
         return value or None  # "" clears it, as null does: unique, so never stored blank

@@ -1,0 +1,176 @@
+"""Per-vessel routing: queued commands relayed by SMS or Iridium SBD when HTTP cannot be
+trusted to carry them (the rule is links.routing's, pure; this is its one pass over the
+database, run by ``manage.py run_links``).
+
+Here, on the top floor, because it joins four apps: commands (what waits), links (what each
+vessel's links did today), sms and sbd (the two ways out), and alerts' SMS sender (the shore's
+own modem or its HTTP gateway, the one alerts text through).
+
+Each relay is claimed on the command first (``command_relay_claim``), so two passes side by
+side never send one command twice; a link that cannot carry it (no SMS form for a long mission,
+270 bytes for SBD, a send that failed for good) hands the claim to the next, and a command no
+link can carry is marked ``none`` with the reasons in its history, so it is not tried again.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import logging
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+
+from django.db.models import Max, Q
+from django.utils import timezone
+
+from commands.lifecycle import Status
+from commands.models import Command, Relay
+from commands.services import command_note, command_relay_claim
+from links.models import LinkDay, Transport
+from links.routing import PREFERENCE, Decision, Route, VesselLinks, decide
+from vessels.models import OVERDUE_PERIODS, Vessel, VesselKind
+
+logger = logging.getLogger(__name__)
+BATCH = 200
+# What a route's budget is counted in, per vessel: today's LinkDay credits (SMS segments, SBD
+# credits); the budgets are the vessel's own fields (the budget alert reads the same).
+BUDGET_FIELD = {Route.SMS: "sms_daily_budget", Route.SBD: "sbd_daily_credit_budget"}
+
+
+class Refused(Exception):
+    """This link cannot carry this command; the message says why (for its history)."""
+
+
+# A link's way out: sends one command, returns what became of it for the command's history,
+# raises Refused when it cannot carry it.
+Sender = Callable[[Command, dt.datetime], str]
+
+
+@dataclass
+class RoutingReport:
+    relayed: list[tuple[str, Route]] = field(default_factory=list)
+    impossible: list[str] = field(default_factory=list)
+
+
+def _reachable(vessel: Vessel, senders: Mapping[Route, Sender]) -> frozenset[Route]:
+    routes = set()
+    # Only a glider's bridge reads commands in SMS; an ArduPilot boat's modem is for data.
+    if Route.SMS in senders and vessel.sms_number and vessel.kind == VesselKind.WAVE_GLIDER:
+        routes.add(Route.SMS)
+    if Route.SBD in senders and vessel.imei:
+        routes.add(Route.SBD)
+    return frozenset(routes)
+
+
+def _pending(now: dt.datetime, limit: int) -> list[Command]:
+    reachable = Q(vessel__imei__isnull=False) | ~Q(vessel__sms_number="")
+    unexpired = Q(expires_at__isnull=True) | Q(expires_at__gt=now)
+    return list(
+        Command.objects.filter(reachable, unexpired, status=Status.QUEUED, relay="", reported=False)
+        .filter(vessel__active=True)
+        .select_related("vessel")
+        .order_by("created_at", "pk")[:limit]
+    )
+
+
+def _links_today(vessel_ids: Iterable[int], now: dt.datetime) -> dict[int, dict]:
+    """Per vessel: its newest HTTP contact (any day) and today's SMS and SBD spending."""
+    ids = list(vessel_ids)
+    out: dict[int, dict] = {pk: {"last_http_at": None, "spent": {}} for pk in ids}
+    heard = (
+        LinkDay.objects.filter(vessel_id__in=ids, transport=Transport.HTTP)
+        .values("vessel_id")
+        .annotate(at=Max("last_contact_at"))
+    )
+    for row in heard:
+        out[row["vessel_id"]]["last_http_at"] = row["at"]
+    today = LinkDay.objects.filter(
+        vessel_id__in=ids, day=now.astimezone(dt.UTC).date(), transport__in=list(PREFERENCE)
+    ).values_list("vessel_id", "transport", "credits")
+    for vessel_id, transport, spent in today:
+        out[vessel_id]["spent"][Route(transport)] = spent
+    return out
+
+
+def vessel_links(vessel: Vessel, known: Mapping, usable: frozenset[Route]) -> VesselLinks:
+    return VesselLinks(
+        period_s=vessel.telemetry_period_s,
+        overdue_periods=OVERDUE_PERIODS,
+        last_http_at=known["last_http_at"],
+        usable=usable,
+        spent=known["spent"],
+        budget={route: getattr(vessel, name) for route, name in BUDGET_FIELD.items()},
+    )
+
+
+def route_pending(
+    *, senders: Mapping[Route, Sender], now: dt.datetime | None = None, limit: int = BATCH
+) -> RoutingReport:
+    """One pass: every queued command that should go by another link goes, oldest first."""
+    now = now or timezone.now()
+    report = RoutingReport()
+    pending = _pending(now, limit)
+    if not pending:
+        return report
+    known = _links_today({c.vessel_id for c in pending}, now)
+    for command in pending:
+        vessel = command.vessel
+        links = vessel_links(vessel, known[vessel.pk], _reachable(vessel, senders))
+        decision = decide(links, urgent=command.urgent, now=now)
+        if decision.routes:
+            route = _relay(command, decision, senders, now)
+            if route is None:
+                report.impossible.append(str(command.uid))
+            else:
+                report.relayed.append((str(command.uid), route))
+                # Counted before the next command: a budget can run out within one pass.
+                spent = known[vessel.pk]["spent"]
+                spent[route] = spent.get(route, 0) + 1
+    return report
+
+
+def _relay(
+    command: Command, decision: Decision, senders: Mapping[Route, Sender], now: dt.datetime
+) -> Route | None:
+    """Try the decision's links in order; the one that took it, or None (marked ``none``)."""
+    was, reasons = "", []
+    for route in decision.routes:
+        if not command_relay_claim(command=command, relay=route.value, was=was, now=now):
+            return None  # another pass has it
+        was = route.value
+        try:
+            outcome = senders[route](command, now)
+        except Refused as exc:
+            reasons.append(f"{route.value}: {exc}")
+            continue
+        command_note(
+            command=command, actor="shore", now=now, detail=f"{decision.reason}: {outcome}"
+        )
+        logger.info("command %s relayed by %s (%s)", command.uid, route.value, decision.reason)
+        return route
+    if command_relay_claim(command=command, relay=Relay.NONE, was=was, now=now):
+        detail = f"{decision.reason}, but no link could carry it: " + "; ".join(reasons)
+        command_note(command=command, actor="shore", now=now, detail=detail)
+        logger.warning("command %s: %s", command.uid, detail)
+    return None
+
+
+ROUTE_NAMES = {Route.SMS: "SMS", Route.SBD: "Iridium SBD"}
+
+
+def routing_summary(
+    vessel: Vessel, senders: Mapping[Route, Sender], now: dt.datetime | None = None
+) -> str:
+    """One sentence for the vessel's page: which links its commands take now, and why."""
+    now = now or timezone.now()
+    usable = _reachable(vessel, senders)
+    if not usable:
+        return "Commands go by HTTP alone: no SMS number or Iridium IMEI the site can send to."
+    links = vessel_links(vessel, _links_today([vessel.pk], now)[vessel.pk], usable)
+    names = " or ".join(ROUTE_NAMES[r] for r in PREFERENCE if r in usable)
+    calm = decide(links, urgent=False, now=now)
+    if calm.routes:
+        ways = ", then ".join(ROUTE_NAMES[r] for r in calm.routes)
+        return f"Queued commands also go by {ways}: {calm.reason}."
+    if links.http_silent(now):
+        return f"Queued commands wait for HTTP: {calm.reason}."
+    return f"HTTP is reporting: commands go by HTTP; urgent ones also by {names}."

@@ -1,0 +1,220 @@
+"""Per-vessel routing against the real database and RockBLOCK's MT API (a local HTTP server
+standing in for it): what a pass relays, once, and what it leaves to HTTP."""
+
+from __future__ import annotations
+
+import datetime as dt
+from io import StringIO
+from typing import Any
+
+import pytest
+from django.core.management import call_command
+from django.utils import timezone
+
+from commands.models import Command, Relay
+from commands.services import command_enqueue, command_relay_claim
+from edge_client.contract import compact_command
+from fleet.relays import configured_senders
+from fleet.routing import Refused, route_pending, routing_summary
+from links.routing import Route
+from links.services import link_count
+from tests.sbd.conftest import IMEI, MtEndpoint, mt_endpoint, sbd_vessel  # noqa: F401 (fixtures)
+from vessels.models import Vessel
+
+pytestmark = pytest.mark.django_db
+
+
+@pytest.fixture(autouse=True)
+def _no_move_limit(settings: Any) -> None:
+    settings.MOVE_TO_MAX_M = 0
+
+
+@pytest.fixture
+def mt(settings: Any, mt_endpoint: MtEndpoint) -> MtEndpoint:  # noqa: F811 (the fixture)
+    settings.SBD_ROCKBLOCK_MT_URL = mt_endpoint.url
+    settings.SBD_ROCKBLOCK_USERNAME = "shore@example.org"
+    settings.SBD_ROCKBLOCK_PASSWORD = "s3cret"
+    return mt_endpoint
+
+
+def heard_over_http(vessel: Vessel, ago_s: float) -> None:
+    at = timezone.now() - dt.timedelta(seconds=ago_s)
+    link_count(vessel_id=vessel.pk, transport="http", at=at, contact=True, messages_in=1)
+
+
+def move_to(vessel: Vessel, **kw: Any) -> Command:
+    return command_enqueue(
+        vessel=vessel, kind="move_to", params={"lat": -32.06, "lon": 115.75}, **kw
+    )
+
+
+def notes(command: Command) -> list[str]:
+    return [e.detail for e in command.events.filter(actor="shore").order_by("pk")]
+
+
+def test_a_command_for_a_vessel_silent_over_http_goes_by_sbd_once(
+    mt: MtEndpoint,
+    sbd_vessel: Vessel,  # noqa: F811
+) -> None:
+    heard_over_http(sbd_vessel, ago_s=3 * 600 + 60)  # three 10-minute periods and a minute
+    command = move_to(sbd_vessel)
+    report = route_pending(senders=configured_senders())
+    assert report.relayed == [(str(command.uid), Route.SBD)]
+    [form] = mt.posts
+    assert form["imei"] == IMEI
+    assert compact_command.decode(bytes.fromhex(form["data"])).uid == str(command.uid)
+    command.refresh_from_db()
+    assert (command.relay, command.status) == (Relay.SBD, "queued")  # HTTP still offers it
+    assert notes(command) == [
+        "silent over HTTP for 31 min (its schedule: 600 s): "
+        "sent by Iridium SBD (27 bytes, 1 credit), RockBLOCK message 5001"
+    ]
+    assert route_pending(senders=configured_senders()).relayed == []
+    assert len(mt.posts) == 1
+
+
+def test_a_reporting_vessel_waits_for_http_unless_the_command_is_urgent(
+    mt: MtEndpoint,
+    sbd_vessel: Vessel,  # noqa: F811
+) -> None:
+    heard_over_http(sbd_vessel, ago_s=20)
+    calm = move_to(sbd_vessel)
+    assert route_pending(senders=configured_senders()).relayed == []
+    urgent = command_enqueue(vessel=sbd_vessel, kind="hold", params={}, urgent=True)
+    report = route_pending(senders=configured_senders())
+    assert report.relayed == [(str(urgent.uid), Route.SBD)]
+    assert compact_command.decode(bytes.fromhex(mt.posts[0]["data"])).kind == "hold"
+    calm.refresh_from_db()
+    assert calm.relay == ""
+
+
+def test_with_no_sbd_account_nothing_is_relayed(sbd_vessel: Vessel) -> None:  # noqa: F811
+    move_to(sbd_vessel, urgent=True)
+    assert configured_senders() == {}
+    report = route_pending(senders=configured_senders())
+    assert report.relayed == [] and report.impossible == []
+    assert Command.objects.get().relay == ""
+
+
+def test_a_spent_budget_holds_back_what_is_not_urgent(
+    mt: MtEndpoint,
+    sbd_vessel: Vessel,  # noqa: F811
+) -> None:
+    sbd_vessel.sbd_daily_credit_budget = 2
+    sbd_vessel.save()
+    link_count(vessel_id=sbd_vessel.pk, transport="sbd", at=timezone.now(), credits=1)
+    first = move_to(sbd_vessel)
+    second = command_enqueue(vessel=sbd_vessel, kind="arm", params={})
+    # Never heard over HTTP: both are due, but the second credit of the day spends the budget.
+    report = route_pending(senders=configured_senders())
+    assert report.relayed == [(str(first.uid), Route.SBD)]
+    second.refresh_from_db()
+    assert second.relay == "" and len(mt.posts) == 1
+
+
+def test_a_command_no_link_can_carry_is_marked_and_not_tried_again(
+    sbd_vessel: Vessel,  # noqa: F811
+) -> None:
+    tries = []
+
+    def refuse(command: Command, now: dt.datetime) -> str:
+        tries.append(command.uid)
+        raise Refused("280 bytes: more than one message holds")
+
+    command = move_to(sbd_vessel)
+    report = route_pending(senders={Route.SBD: refuse})
+    assert report.impossible == [str(command.uid)] and report.relayed == []
+    command.refresh_from_db()
+    assert command.relay == Relay.NONE
+    assert notes(command) == [
+        "never heard over HTTP, but no link could carry it: "
+        "sbd: 280 bytes: more than one message holds"
+    ]
+    route_pending(senders={Route.SBD: refuse})
+    assert len(tries) == 1
+
+
+def test_a_refusing_link_hands_the_command_to_the_next(sbd_vessel: Vessel) -> None:  # noqa: F811
+    sbd_vessel.kind, sbd_vessel.sms_number = "wave_glider", "+61400000009"
+    sbd_vessel.save()
+    command = command_enqueue(vessel=sbd_vessel, kind="hold", params={})
+
+    def no_sms(command: Command, now: dt.datetime) -> str:
+        raise Refused("the gateway answered 500")
+
+    def sbd(command: Command, now: dt.datetime) -> str:
+        return "sent by Iridium SBD"
+
+    report = route_pending(senders={Route.SMS: no_sms, Route.SBD: sbd})
+    assert report.relayed == [(str(command.uid), Route.SBD)]
+    command.refresh_from_db()
+    assert command.relay == Relay.SBD
+    assert notes(command) == ["never heard over HTTP: sent by Iridium SBD"]
+
+
+def test_sms_is_only_for_a_glider(sbd_vessel: Vessel) -> None:  # noqa: F811
+    sbd_vessel.sms_number = "+61400000009"  # an ArduPilot boat: its modem is for data
+    sbd_vessel.imei = None
+    sbd_vessel.save()
+    move_to(sbd_vessel)
+    sent = []
+    route_pending(senders={Route.SMS: lambda c, now: sent.append(c) or "sent"})
+    assert sent == []
+
+
+def test_a_relay_is_claimed_once(sbd_vessel: Vessel) -> None:  # noqa: F811
+    command = move_to(sbd_vessel)
+    other = Command.objects.get(pk=command.pk)
+    assert command_relay_claim(command=command, relay="sbd")
+    assert not command_relay_claim(command=other, relay="sms")
+    other.refresh_from_db()
+    assert other.relay == "sbd"
+
+
+def test_expired_cancelled_and_sent_commands_are_left_alone(
+    mt: MtEndpoint,
+    sbd_vessel: Vessel,  # noqa: F811
+) -> None:
+    expired = move_to(sbd_vessel)
+    Command.objects.filter(pk=expired.pk).update(expires_at=timezone.now())
+    sent = command_enqueue(vessel=sbd_vessel, kind="hold", params={})
+    Command.objects.filter(pk=sent.pk).update(status="sent")
+    assert route_pending(senders=configured_senders()).relayed == []
+    assert mt.posts == []
+
+
+# The command calls close_old_connections(), which closes a connection left inside a test's
+# transaction: a real transaction here (as tests/alerts/test_run_alerts.py).
+@pytest.mark.django_db(transaction=True)
+def test_run_links_once_relays_and_says_so(mt: MtEndpoint, sbd_vessel: Vessel) -> None:  # noqa: F811
+    command = move_to(sbd_vessel)
+    out = StringIO()
+    call_command("run_links", "--once", stdout=out)
+    assert out.getvalue() == f"run_links: command {command.uid} relayed by sbd\n"
+    assert len(mt.posts) == 1
+
+
+def test_the_vessel_page_says_where_commands_go(
+    mt: MtEndpoint,
+    sbd_vessel: Vessel,  # noqa: F811
+) -> None:
+    senders = configured_senders()
+    assert routing_summary(sbd_vessel, senders) == (
+        "Queued commands also go by Iridium SBD: never heard over HTTP."
+    )
+    heard_over_http(sbd_vessel, ago_s=30)
+    assert routing_summary(sbd_vessel, senders) == (
+        "HTTP is reporting: commands go by HTTP; urgent ones also by Iridium SBD."
+    )
+    sbd_vessel.sbd_daily_credit_budget = 0
+    heard_over_http(sbd_vessel, ago_s=3600)  # an older contact does not move it back
+    assert "HTTP is reporting" in routing_summary(sbd_vessel, senders)
+    assert routing_summary(sbd_vessel, {}) == (
+        "Commands go by HTTP alone: no SMS number or Iridium IMEI the site can send to."
+    )
+
+
+def test_a_silent_vessel_over_budget_waits_for_http(sbd_vessel: Vessel) -> None:  # noqa: F811
+    sbd_vessel.sbd_daily_credit_budget = 0
+    summary = routing_summary(sbd_vessel, {Route.SBD: lambda c, now: "sent"})
+    assert summary == "Queued commands wait for HTTP: never heard over HTTP, but sbd budget spent."
