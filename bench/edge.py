@@ -114,7 +114,8 @@ class BoatApi(BaseHTTPRequestHandler):
             self.send_header(name, value)
         if payload is not None:
             self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(data)))
+        if status != 204:  # a 204 has no body, nor a length (RFC 9110 §8.6)
+            self.send_header("Content-Length", str(len(data)))
         self.end_headers()
         self.wfile.write(data)
 
@@ -126,9 +127,11 @@ class BoatApi(BaseHTTPRequestHandler):
             self.server.stats["fixes"] += len(fixes)
             answer = {"accepted": len(fixes), "duplicates": 0, "rejected": []}
             held = self.headers.get(EXCHANGE_HEADER)  # one exchange per period (docs/api.md)
+            if held == self.ETAG:
+                self._send(204, None)  # all stored, the list held is current: nothing to say
+                return
             if held is not None:
-                if held != self.ETAG:
-                    answer["commands"] = []
+                answer["commands"] = []
                 answer["commands_etag"] = self.ETAG
             self._send(200, answer)
         elif self.path == "/spab/data.cgi":

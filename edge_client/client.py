@@ -294,6 +294,11 @@ class EdgeClient:
                 return True
             half = len(items) // 2
             return self._send_fixes(items[:half]) and self._send_fixes(items[half:])
+        if self.exchange and response.status == exchange.SETTLED:
+            # Every fix stored or already there, and the list held is current.
+            self._list_current = True
+            self.outbox.remove([i.id for i in sent])
+            return True
         answer = response.json()
         if self.exchange:
             self._take_exchange(answer)

@@ -45,6 +45,9 @@ class BoatApiSlimMiddleware:
                 continue
             if header in response.headers:
                 del response.headers[header]
+        # CommonMiddleware adds "Content-Length: 0"; a 204 must not carry one (RFC 9110 §8.6).
+        if response.status_code == 204 and "Content-Length" in response.headers:
+            del response.headers["Content-Length"]
 
 
 class BoatPathsPassBy:

@@ -6,7 +6,12 @@ The boat sends the command poll's ETag it holds in :data:`HEADER` with its batch
 now) to the batch answer, and :data:`COMMANDS_KEY` (exactly the poll's ``commands``) only when
 that ETag differs from the one sent. A post without the header is answered as it always was,
 so an older boat sees no change; an answer without :data:`ETAG_KEY` comes from an older server,
-and the boat keeps polling. Pure: both sides import it.
+and the boat keeps polling.
+
+With the header, the commonest answer says nothing: every fix stored (or already there), none
+rejected, and the list the boat holds still current. That answer is :data:`SETTLED` (204 No
+Content): no body and no content headers, about 120 bytes fewer on every exchange of a boat
+that reports every period. Pure: both sides import it.
 """
 
 from __future__ import annotations
@@ -22,6 +27,8 @@ META_KEY = "HTTP_X_COMMANDS_ETAG"
 NONE_HELD = '""'
 # A held ETag longer than this is no ETag of ours ('"c<vessel>.<version>"'): taken as none held.
 MAX_HELD = 64
+# The answer to a batch taken whole while the boat's list is current: nothing to say.
+SETTLED = 204
 ETAG_KEY = "commands_etag"
 COMMANDS_KEY = "commands"
 
@@ -29,6 +36,12 @@ COMMANDS_KEY = "commands"
 def held_etag(value: str | None) -> str:
     """What the boat sends in :data:`HEADER`: the ETag it holds, or :data:`NONE_HELD`."""
     return value or NONE_HELD
+
+
+def settled(answer: dict[str, Any]) -> bool:
+    """Whether an exchange's answer (the batch answer with its exchange keys) may be
+    :data:`SETTLED`: nothing rejected, and no list to send."""
+    return not answer.get("rejected") and COMMANDS_KEY not in answer
 
 
 def list_in_answer(answer: Any) -> tuple[str, list[Any] | None] | None:

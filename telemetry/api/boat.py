@@ -15,6 +15,7 @@ from django.http import HttpRequest, HttpResponse, HttpResponseBase
 from drf_spectacular.types import OpenApiTypes
 from drf_spectacular.utils import (
     OpenApiParameter,
+    OpenApiResponse,
     extend_schema,
     extend_schema_field,
     inline_serializer,
@@ -122,7 +123,13 @@ class TelemetryView(BoatView):
                 "answer then carries the command list when it changed (docs/api.md)",
             )
         ],
-        responses={200: _IngestResult},
+        responses={
+            200: _IngestResult,
+            204: OpenApiResponse(
+                description=f"with {exchange.HEADER}: every fix stored or already there, and "
+                "the command list the boat holds is current (nothing to say)"
+            ),
+        },
         tags=["boat"],
     )
     def post(self, request: Request) -> Response:
@@ -136,15 +143,19 @@ class TelemetryView(BoatView):
             vessel=vessel, records=records_from_body(request.data), key_id=request.auth.pk
         )
         request._request.link_fixes_in = result.accepted  # links.http counts them
-        return Response(self.answer(request, vessel, result))
+        answer = self.answer(request, vessel, result)
+        return settled_response() if answer is None else Response(answer)
 
-    def answer(self, request: HttpRequest | Request, vessel: Vessel, result: Any) -> dict:
+    def answer(self, request: HttpRequest | Request, vessel: Vessel, result: Any) -> dict | None:
         """The batch answer, and the command list's exchange when the boat sent the ETag it
-        holds (edge_client.contract.exchange; without the header: the answer as ever)."""
+        holds (edge_client.contract.exchange; without the header: the answer as ever). None
+        for an exchange with nothing to say: answered 204 (``exchange.SETTLED``)."""
         answer = result.as_dict()
         held = request.META.get(exchange.META_KEY)
         if held is not None and self.commands_exchange is not None:
             answer.update(self.commands_exchange(vessel, held))
+            if exchange.settled(answer):
+                return None
         return answer
 
     def dispatch(self, request: HttpRequest, *args: Any, **kwargs: Any) -> HttpResponseBase:
@@ -169,9 +180,13 @@ class TelemetryView(BoatView):
             vessel = self.vessel(drf_request)
             result = fix_ingest(vessel=vessel, records=records, key_id=drf_request.auth.pk)
             request.link_fixes_in = result.accepted  # type: ignore[attr-defined]
-            response: HttpResponseBase = HttpResponse(
-                JSONRenderer().render(self.answer(request, vessel, result)),
-                content_type=JSONRenderer.media_type,
+            answer = self.answer(request, vessel, result)
+            response: HttpResponseBase = (
+                settled_response()
+                if answer is None
+                else HttpResponse(
+                    JSONRenderer().render(answer), content_type=JSONRenderer.media_type
+                )
             )
         except Exception as exc:
             response = self.handle_exception(exc)
@@ -188,6 +203,13 @@ class TelemetryView(BoatView):
                 if isinstance(exc, KeyRefused):  # it works again (un-revoked meanwhile): rare
                     exc = AuthenticationFailed("Invalid vessel key.")
         return super().handle_exception(exc)
+
+
+def settled_response() -> HttpResponse:
+    """204 No Content, with no Content-Type either (Django adds one to every response)."""
+    response = HttpResponse(status=exchange.SETTLED)
+    del response["Content-Type"]
+    return response
 
 
 def everyday_records(request: HttpRequest) -> list[Any] | None:

@@ -17,6 +17,7 @@ from commands.lifecycle import Status
 from commands.models import Command, CommandEvent
 from commands.services import command_enqueue
 from edge_client.contract import compact, exchange
+from telemetry.models import Fix
 from tests.conftest import give_position
 from tests.support import BROWSER_HEADERS, COMMANDS, TELEMETRY, MakeFix
 from tests.telemetry.test_boat_api import SINGLE_POST_STATEMENTS
@@ -28,12 +29,16 @@ EXCHANGE_KEYS = {exchange.ETAG_KEY, exchange.COMMANDS_KEY}
 _seconds = iter(range(10**6))
 
 
-def post(client: APIClient, make_fix: MakeFix, **headers: str) -> Any:
+def vessel_fixes(vessel: Vessel) -> int:
+    return Fix.objects.filter(vessel=vessel).count()
+
+
+def post(client: APIClient, make_fix: MakeFix, status: int = 200, **headers: str) -> Any:
     """One single-fix post (a new fix each time: never a duplicate), JSON as a boat sends it."""
     when = dt.datetime(2026, 11, 23, 9, tzinfo=dt.UTC) + dt.timedelta(seconds=next(_seconds))
     body = json.dumps({"fixes": [make_fix(time=when.isoformat())]})
     response = client.generic("POST", TELEMETRY, body, content_type="application/json", **headers)
-    assert response.status_code == 200, response.content
+    assert response.status_code == status, response.content
     return response
 
 
@@ -74,12 +79,41 @@ def test_the_answer_carries_the_polls_list_and_claims_it_as_the_poll_does(
         assert sorted(e.actor for e in events) == ["boat", "boat"]
 
 
-def test_an_unchanged_list_is_only_its_etag(
+def test_a_batch_taken_whole_with_the_list_unchanged_is_answered_with_nothing(
+    boat_a: APIClient, command_a: Command, make_fix: MakeFix
+) -> None:
+    """204 No Content: no body, no content headers (exchange.SETTLED); the fix is stored."""
+    etag = boat_a.get(COMMANDS)["ETag"]
+    response = post(boat_a, make_fix, status=204, **{HEADER: etag})
+    assert response.content == b""
+    assert set(response.headers) == set()  # the WSGI server adds its Date and Connection
+    assert vessel_fixes(command_a.vessel) == 1
+
+
+def test_a_rejected_fix_is_said_even_when_the_list_is_unchanged(
     boat_a: APIClient, command_a: Command, make_fix: MakeFix
 ) -> None:
     etag = boat_a.get(COMMANDS)["ETag"]
-    answer = post(boat_a, make_fix, **{HEADER: etag}).json()
-    assert answer == {"accepted": 1, "duplicates": 0, "rejected": [], "commands_etag": etag}
+    body = json.dumps({"fixes": [make_fix(time="2026-11-23T10:00:00Z"), {"lat": 91}]})
+    response = boat_a.generic(
+        "POST", TELEMETRY, body, content_type="application/json", **{HEADER: etag}
+    )
+    assert response.status_code == 200
+    answer = response.json()
+    assert (answer["accepted"], len(answer["rejected"])) == (1, 1)
+    assert answer["commands_etag"] == etag and exchange.COMMANDS_KEY not in answer
+
+
+def test_duplicates_alone_are_settled_too(
+    boat_a: APIClient, command_a: Command, make_fix: MakeFix
+) -> None:
+    etag = boat_a.get(COMMANDS)["ETag"]
+    body = json.dumps({"fixes": [make_fix(time="2026-11-23T10:00:00Z")]})
+    for _ in range(2):  # stored, then a duplicate: both settled
+        response = boat_a.generic(
+            "POST", TELEMETRY, body, content_type="application/json", **{HEADER: etag}
+        )
+        assert response.status_code == 204
 
 
 def test_a_command_queued_since_comes_in_the_next_answer_even_from_a_recent_key(
@@ -95,8 +129,7 @@ def test_a_command_queued_since_comes_in_the_next_answer_even_from_a_recent_key(
     answer = post(boat_a, make_fix, **{HEADER: first["commands_etag"]}).json()
     assert [c["uid"] for c in answer["commands"]] == [str(command.uid)]
     assert answer["commands_etag"] != first["commands_etag"]
-    again = post(boat_a, make_fix, **{HEADER: answer["commands_etag"]}).json()
-    assert exchange.COMMANDS_KEY not in again  # the new tag held: nothing more to send
+    post(boat_a, make_fix, status=204, **{HEADER: answer["commands_etag"]})  # nothing more
     command.refresh_from_db()
     assert command.status == Status.SENT
 
@@ -146,8 +179,7 @@ def test_a_weakened_or_listed_tag_matches_as_in_the_poll(
     boat_a: APIClient, command_a: Command, make_fix: MakeFix, form: str
 ) -> None:
     etag = boat_a.get(COMMANDS)["ETag"]
-    answer = post(boat_a, make_fix, **{HEADER: form.format(tag=etag)}).json()
-    assert exchange.COMMANDS_KEY not in answer
+    post(boat_a, make_fix, status=204, **{HEADER: form.format(tag=etag)})
 
 
 def test_the_short_way_and_drfs_whole_way_answer_alike(
@@ -219,8 +251,7 @@ def test_an_exchange_with_nothing_new_costs_one_select_more(
     recent lookup's, its version up to a minute old. The poll it replaces cost a request."""
     etag = post(boat_a, make_fix, **{HEADER: exchange.NONE_HELD}).json()["commands_etag"]
     with CaptureQueriesContext(connection) as queries:
-        answer = post(boat_a, make_fix, **{HEADER: etag}).json()
-    assert answer["commands_etag"] == etag and exchange.COMMANDS_KEY not in answer
+        post(boat_a, make_fix, status=204, **{HEADER: etag})
     kinds = [q["sql"].split(None, 1)[0].upper() for q in queries]
     expected = [*SINGLE_POST_STATEMENTS[connection.vendor], "SELECT"]
     assert kinds == expected, [q["sql"][:80] for q in queries]
