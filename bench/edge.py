@@ -50,10 +50,13 @@ from pathlib import Path
 
 from edge_client.contract import compact
 from edge_client.contract.fix import AUTOPILOT_READINGS
+from vessels.keys import generate_key
 
 ROOT = Path(__file__).resolve().parents[1]
 # The compact variant's channel table: the readings the edge client takes from the autopilot.
 AUTOPILOT_CHANNELS = [compact.Channel(name, 1) for name in AUTOPILOT_READINGS]
+# A key of the real length (ssk_ and 43 characters): its header is on every request.
+BOAT_KEY = generate_key()
 TELEMETRY_PERIOD_S = 2.0
 EXCHANGE_HEADER = "X-Commands-ETag"
 SIM_RATE_HZ = 4.0
@@ -230,7 +233,7 @@ class EdgeRun:
             config = ["--config", str(path)]
         self.client = spawn([
             "-m", "edge_client", "run", *config, "--server",
-            f"http://127.0.0.1:{self.server.server_address[1]}", "--key", "bench-key",
+            f"http://127.0.0.1:{self.server.server_address[1]}", "--key", BOAT_KEY,
             "--mavlink", f"udpout:127.0.0.1:{port}", "--outbox", str(workdir / f"{name}.db"),
             "--telemetry-period", str(TELEMETRY_PERIOD_S), "--poll-period", str(poll_s),
             "--log-level", "WARNING",

@@ -242,11 +242,16 @@ def test_a_fixed_heading_is_picked_on_the_map_and_a_light_queued_then_cancelled(
     assert 180 < bearing < 270  # down and to the left of the glider: south-west
     assert f"Fixed heading {bearing:03d}°" in text
 
+    assert not Command.objects.get(kind="fhead").urgent
     browser.find_element(By.CSS_SELECTOR, '#fleet-panel button.action[data-kind="light"]').click()
+    # Urgent: the shore also sends it by the glider's SMS or SBD link (docs/links.md).
+    browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-urgent input").click()
     browser.find_element(By.CSS_SELECTOR, "#fleet-panel .confirm-queue").click()
     wait_until(lambda: Command.objects.filter(kind="light").exists(), 20, "the light")
     light = Command.objects.get(kind="light")
-    assert light.params == {"state": "on"}
+    assert light.params == {"state": "on"} and light.urgent
+    line = f'#fleet-panel li[data-uid="{light.uid}"]'
+    wait_for(browser, lambda b: "urgent" in b.find_element(By.CSS_SELECTOR, line).text)
     cancel = f'#fleet-panel li[data-uid="{light.uid}"] .cancel-command'
     wait_for(browser, lambda b: b.find_element(By.CSS_SELECTOR, cancel).click() or True)
     wait_for(

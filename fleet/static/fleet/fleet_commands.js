@@ -11,6 +11,8 @@
   // A move_to farther than this is warned about in the confirmation: a boat's usual move is a
   // few hundred metres; the server refuses past the vessel's limit (MOVE_TO_MAX_M, 5 km).
   var MOVE_WARN_M = 2000;
+  // A command's relay (docs/links.md#routing-per-vessel), as its line in the list says it.
+  var RELAYED = { sms: "SMS", sbd: "Iridium SBD" };
 
   // --- commands from the map ------------------------------------------------------------
 
@@ -60,9 +62,18 @@
       box.appendChild(pickBox);
     }
     if (this.pending) {
+      var urgent = el("input", { type: "checkbox", class: "urgent", onchange: function (e) { self.pending.urgent = e.target.checked; } });
+      urgent.checked = !!this.pending.urgent;  // an attribute would tick it whatever its value
       var confirmBox = box.appendChild(el("div", { class: "confirm-box" }, [
         el("p", { class: "confirm-text", text: this.pending.text }),
         this.pending.warning ? el("p", { class: "confirm-warning", text: this.pending.warning }) : null,
+        // Urgent: the shore also sends it at once by the vessel's SMS or Iridium SBD link
+        // (docs/links.md#routing-per-vessel), which costs per message.
+        el("label", { class: "confirm-urgent small" }, [
+          urgent,
+          " urgent: also by SMS or Iridium SBD at once, if it has one",
+        ]),
+        el("br"),
         el("button", { type: "button", class: "button default confirm-queue", text: "Queue", onclick: function () { self.send(); } }),
         " ",
         el("button", { type: "button", class: "button confirm-cancel", text: "Cancel", onclick: function () { self.cancelPick(); } }),
@@ -165,7 +176,7 @@
       credentials: "same-origin",
       headers: { "Content-Type": "application/json", Accept: "application/json", "X-CSRFToken": this.cfg.csrfToken },
       // source "map": the history says the command came from the map, not a script.
-      body: JSON.stringify({ kind: pending.kind, params: pending.params, source: "map" }),
+      body: JSON.stringify({ kind: pending.kind, params: pending.params, source: "map", urgent: !!pending.urgent }),
     })
       .then(function (r) { return r.json().catch(function () { return {}; }).then(function (body) { return { r: r, body: body }; }); })
       .then(function (res) {
@@ -261,7 +272,7 @@
         " ",
         el("span", { class: "muted", text: summary(c.params) }),
         el("br"),
-        el("span", { class: "muted small" }, [self.ageSpan(c.created_at, " ago"), (c.created_by ? " by " + c.created_by : "") + " via " + c.source + (c.result_detail ? " · " + c.result_detail : "")]),
+        el("span", { class: "muted small" }, [self.ageSpan(c.created_at, " ago"), (c.created_by ? " by " + c.created_by : "") + " via " + c.source + (c.urgent ? " · urgent" : "") + (RELAYED[c.relay] ? " · also sent by " + RELAYED[c.relay] : "") + (c.result_detail ? " · " + c.result_detail : "")]),
       ]);
       if (self.cfg.canCancel && self.cfg.statuses.cancellable.indexOf(c.status) >= 0) {
         item.appendChild(el("button", { type: "button", class: "link-button cancel-command", text: "cancel", onclick: function () { self.cancelCommand(c.uid, c.kind); } }));
