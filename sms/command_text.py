@@ -9,7 +9,7 @@ The text is the command's SMS form with every value exact (a float is written wi
 digits as it needs to read back to the same number, not the 4 decimals of a reply's echo),
 then a space and the reference::
 
-    #WAYPOINT 1 -32.038 115.3325 ref:AUXDPXMNW5C7RC3R6WKMGFOUUDFU
+    #WAYPOINT 1 -32.038 115.3325 ref:BN5FYHR7FVHIVHCBLVXH7AE2DPFP
 
 The reference is ``ref:`` and 28 characters of the RFC 4648 base32 alphabet (A-Z, 2-7; read in
 any case): the uid's 128 bits and a 12-bit check (the low bits of the CRC-32 of its bytes), 140
@@ -47,7 +47,7 @@ REFERENCE_LENGTH = len(REF_MARK) + REF_CHARS
 # What a command keeps of one SMS: the rest is the space and the reference.
 COMMAND_ROOM = SMS_SEPTETS - 1 - REFERENCE_LENGTH
 _DIGIT = {c: i for i, c in enumerate(ALPHABET)}
-_AT_END = re.compile(rf"(?:^|\s){re.escape(REF_MARK)}([A-Za-z2-7]{{{REF_CHARS}}})\s*\Z")
+_AT_END = re.compile(rf"(?:^|\s){re.escape(REF_MARK)}([A-Z2-7]{{{REF_CHARS}}})\s*\Z", re.IGNORECASE)
 
 
 def _check(uid: uuid.UUID) -> int:
