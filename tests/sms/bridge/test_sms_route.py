@@ -7,11 +7,13 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import threading
 import uuid
 from collections.abc import Iterator
 from typing import Any
 
 import pytest
+from django.db import connection, connections, transaction
 from django.utils import timezone
 
 from alerts.notify.sms import ModemSender
@@ -197,6 +199,57 @@ def test_a_reference_to_another_vessels_command_is_refused(glider, shore_number)
     outcome = texted(glider, render("fhead", {"bearing": 5}, theirs.uid))
     assert outcome.reply_texts == ["#FHEAD 5 ERR ref names another vessel's command"]
     assert Command.objects.count() == 1
+
+
+@pytest.mark.django_db(transaction=True)
+def test_a_poll_and_an_sms_of_one_uid_at_once_queue_it_once(glider, shore_number):
+    """The shore link's poll is inserting the uid, not yet committed, when the SMS comes: the
+    SMS waits on the unique index, then is answered as a duplicate (its savepoint rolled back,
+    the rest of its transaction kept)."""
+    if connection.vendor != "postgresql":
+        pytest.skip("SQLite runs one writer at a time: the two cannot overlap")
+    uid = uuid.uuid4()
+    polled, release, answered = threading.Event(), threading.Event(), {}
+
+    def poll() -> None:
+        try:
+            with transaction.atomic():
+                command_enqueue(vessel=glider, kind="light", params={"state": "on"},
+                                created_by=CREATED_BY, uid=uid)  # fmt: skip
+                polled.set()
+                release.wait(30)
+        finally:
+            connections.close_all()
+
+    def sms() -> None:
+        try:
+            answered["outcome"] = texted(glider, render("light", {"state": "on"}, uid))
+        finally:
+            connections.close_all()
+
+    threads = [threading.Thread(target=poll), threading.Thread(target=sms)]
+    threads[0].start()
+    assert polled.wait(30)
+    threads[1].start()
+    try:
+        assert wait_for(lambda: _waiting_on_a_lock() > 0, timeout_s=30)
+    finally:
+        release.set()
+        for thread in threads:
+            thread.join(30)
+    outcome = answered["outcome"]
+    assert outcome.reply_texts == ["#LIGHT ON DUPLICATE (queued here)"]
+    assert Command.objects.filter(uid=uid).count() == 1
+    assert SmsMessage.objects.filter(direction=Direction.IN, outcome=Outcome.ACCEPTED).exists()
+
+
+def _waiting_on_a_lock() -> int:
+    with connection.cursor() as cursor:
+        cursor.execute(
+            "SELECT count(*) FROM pg_stat_activity "
+            "WHERE datname = current_database() AND wait_event_type = 'Lock'"
+        )
+        return cursor.fetchone()[0]
 
 
 # -- through the modems ------------------------------------------------------------------------
