@@ -47,7 +47,8 @@ from pathlib import Path
 from typing import Any
 
 from django.conf import settings
-from django.db import DatabaseError, close_old_connections, connections
+from django.core.exceptions import ValidationError
+from django.db import DatabaseError, IntegrityError, close_old_connections, connections
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
@@ -354,6 +355,11 @@ class ShoreLink:
                         expires_at=_when(wire.get("expires_at")),
                         uid=uid,
                     )
+            except (IntegrityError, ValidationError):
+                if selectors.bridge_command_vessel(uid=uid) != self.vessel.pk:
+                    raise
+                # Queued meanwhile from an SMS carrying the shore's reference: the same command.
+                log.info("shore command %s came by SMS while it was being polled", key)
             except (CatalogError, CommandError) as exc:
                 # Refused here (the glider's catalog, an inactive vessel): the shore hears why.
                 log.warning("shore command %s refused here: %s", key, exc)

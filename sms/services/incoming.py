@@ -91,6 +91,9 @@ def sms_handle_incoming(
        for their outcome until the window passes (:func:`sms_replies_due`), so that it can
        say ``OK`` or ``FAILED …`` rather than ``QUEUED``. ``readings`` (the glider's live
        sensor readings) answer ``#STATUS`` before the last fix's.
+    7. A text ending with a shore reference (``ref:…``, :mod:`sms.command_text`: the shore
+       texted one of its commands) is that one command, queued under the shore command's uid
+       and created by ``shore``; a uid known here already is answered ``DUPLICATE``.
 
     Everything is written in one transaction.
     """
@@ -322,7 +325,7 @@ def _one_shore_command(items: list[Item], uid: uuid.UUID) -> list[Item]:
     if len(items) == 1 and items[0].kind in (ItemKind.COMMAND, ItemKind.ERROR) and items[0].command:
         return items
     reason = f"a shore reference goes with one command (ref {uid})"
-    return [language.Item(ItemKind.ERROR, "", error=reason, commanding=True)]
+    return [Item(ItemKind.ERROR, "", error=reason, commanding=True)]
 
 
 def _take_from_shore(

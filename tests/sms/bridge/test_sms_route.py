@@ -21,6 +21,7 @@ from commands.models import Command
 from commands.services import command_enqueue
 from edge_client.client import ACK_PATH
 from edge_client.transports.base import Response
+from sms import selectors
 from sms.bridge.shore import CREATED_BY, ShoreLink
 from sms.bridge.shore_config import ShoreConfig
 from sms.bridge.sms_link import SmsLink
@@ -147,6 +148,29 @@ def test_polled_first_then_texted_the_sms_is_a_duplicate(glider, shore_number, l
     assert outcome.commands == () and outcome.reply_texts == ["#FHEAD 90 DUPLICATE (queued here)"]
     assert Command.objects.filter(uid=uid).count() == 1
     assert Command.objects.get(uid=uid).source == "api"  # the poll's, untouched
+
+
+@pytest.mark.django_db
+def test_a_poll_that_read_the_uid_as_new_just_before_the_sms_queued_it_takes_it_as_known(
+    glider, shore_number, link, monkeypatch
+):
+    """The other order of the race below: the poll looked the uid up (not here yet), then the
+    SMS committed it, then the poll's insert finds it: claimed, not queued again, no error."""
+    shore_link, shore = link
+    uid = uuid.uuid4()
+    texted(glider, render("fhead", {"bearing": 90}, uid))
+    looked_up = selectors.bridge_command_vessel
+    answers = iter([None])  # the first look-up happened before the SMS's commit
+    monkeypatch.setattr(selectors, "bridge_command_vessel",
+                        lambda *, uid: next(answers, looked_up(uid=uid)))  # fmt: skip
+    shore.open = [{"uid": str(uid), "kind": "fhead", "params": {"bearing": 90}}]
+    assert shore_link.do_one_poll_commands() is True  # claimed here by the poll
+    assert Command.objects.filter(uid=uid).count() == 1
+    assert shore_link.state.reachable is True
+    Command.objects.filter(uid=uid).update(status="done")
+    shore_link.do_one_report_results()
+    shore_link.do_one_flush_acks()
+    assert shore.acks(uid) == ["done"]
 
 
 @pytest.mark.django_db
