@@ -28,3 +28,16 @@ class NumberNotFound(SmsError):
 
     def __init__(self, message: str) -> None:
         super().__init__(message, field="number")
+
+
+class SmsRouteError(SmsError):
+    """A shore command that cannot go to its vessel by SMS; ``message`` says why (the
+    routing reports it and tries another link)."""
+
+
+class NotSayable(SmsRouteError):
+    """A command the glider's SMS language cannot carry in one SMS (no SMS word, too long)."""
+
+
+class RouteNotConfigured(SmsRouteError):
+    """Nothing to send it with or to: no SMS number on the vessel, no sender on the shore."""

@@ -12,7 +12,7 @@ from django.db.models import Q, QuerySet
 
 from commands import catalog
 from commands.lifecycle import OPEN, Status
-from commands.models import Command, CommandEvent
+from commands.models import Command, CommandEvent, Source
 from sms.models import AuthorisedNumber, SmsMessage
 from telemetry.models import Fix
 from vessels.models import Vessel
@@ -132,6 +132,17 @@ def bridge_fixes_after(*, vessel: Vessel, after: int, limit: int) -> list[Fix]:
 def bridge_commands_queued_by(*, vessel: Vessel, created_by: str) -> QuerySet[Command]:
     """The vessel's queued commands that ``created_by`` made (the shore's, taken here)."""
     return Command.objects.filter(vessel=vessel, created_by=created_by, status=Status.QUEUED)
+
+
+def bridge_shore_commands_by_sms_after(
+    *, vessel: Vessel, created_by: str, after: int, limit: int = 100
+) -> list[tuple[int, uuid.UUID, str]]:
+    """(id, uid, kind) of the vessel's commands ``created_by`` made from an SMS (the shore's
+    commands that came by SMS with its reference), by id after ``after``."""
+    found = Command.objects.filter(
+        vessel=vessel, created_by=created_by, source=Source.SMS, pk__gt=after
+    ).order_by("pk")
+    return list(found.values_list("pk", "uid", "kind")[:limit])
 
 
 def bridge_command_vessel(*, uid: uuid.UUID) -> int | None:

@@ -25,7 +25,10 @@ log = logging.getLogger(__name__)
 
 
 class SmsSender(Protocol):
-    def send_sms(self, number: str, text: str) -> None: ...
+    """``send_sms`` raises TransportError only; it returns the modem's reference for the SMS
+    when there is one (the shore's command route logs it), else None."""
+
+    def send_sms(self, number: str, text: str) -> str | None: ...
 
     def close(self) -> None: ...
 
@@ -42,7 +45,7 @@ class ModemSender:
         self.config = ModemConfig(config) if isinstance(config, str) else config
         self._modem: Modem | None = None
 
-    def send_sms(self, number: str, text: str) -> None:
+    def send_sms(self, number: str, text: str) -> str | None:
         if self._modem is None:
             self._modem = Modem(self.config, port_factory=open_exclusive)
         try:
@@ -51,12 +54,13 @@ class ModemSender:
             # The text and Ctrl-Z went out: it has probably gone, and sending it again could
             # wake someone twice (as sms.bridge.sms_link does with replies). Counted as sent.
             log.warning("SMS to %s went out unconfirmed: %s", number, exc)
-            return
+            return None
         except PinRequired as exc:
             raise TransportError(f"modem: {exc}") from None  # the SIM's trouble, not the text's
         except ModemError as exc:
             raise TransportError(f"modem: {exc}", permanent=exc.permanent) from None
         log.info("SMS to %s sent by the modem (ref %s)", number, reference)
+        return str(reference)
 
     def close(self) -> None:
         modem, self._modem = self._modem, None
@@ -71,10 +75,11 @@ class GatewaySender:
     def __init__(self, url: str, token: str, *, timeout_s: float) -> None:
         self.url, self.token, self.timeout_s = url, token, timeout_s
 
-    def send_sms(self, number: str, text: str) -> None:
+    def send_sms(self, number: str, text: str) -> str | None:
         body = json.dumps({"to": number, "text": text}, ensure_ascii=False).encode()
         headers = {"Authorization": f"Bearer {self.token}"} if self.token else {}
         posting.post(self.url, body, headers, self.timeout_s)
+        return None
 
     def close(self) -> None:
         pass

@@ -47,7 +47,8 @@ from pathlib import Path
 from typing import Any
 
 from django.conf import settings
-from django.db import DatabaseError, close_old_connections, connections
+from django.core.exceptions import ValidationError
+from django.db import DatabaseError, IntegrityError, close_old_connections, connections
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 
@@ -63,6 +64,7 @@ from edge_client.transports.base import Transport, TransportError
 from edge_client.transports.http import HttpTransport
 from sms import selectors
 from sms.bridge.shore_config import ShoreConfig
+from sms.command_text import SHORE_CREATED_BY
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services import authorised_numbers_replace
 from sms.services.shore import SHORE_ORIGIN
@@ -83,10 +85,14 @@ REPORT_MAX_BATCH = 200
 REPORT_DETAIL_MAX = 2000  # the longest result_detail the shore takes in a report
 # Report batches sent before an SMS upload; more backlog than that, and the SMS waits a round.
 REPORT_BEFORE_SMS_MAX = 10
-CREATED_BY = "shore"  # a local command queued from the shore: created_by and event actor
+# A local command queued from the shore (polled, or texted with its reference): created_by
+# and event actor.
+CREATED_BY = SHORE_CREATED_BY
 FIX_WATERMARK = "shore_fix_watermark"  # outbox counters: the last local Fix id settled
 SMS_WATERMARK = "shore_sms_watermark"  # the last local SmsMessage id uploaded
 REPORT_WATERMARK = "shore_report_watermark"  # the last local CommandEvent id reported
+# The last local Command id looked at among the shore's commands that came by SMS.
+SMS_COMMAND_WATERMARK = "shore_sms_command_watermark"
 OUTBOX_NAME = "wg-shore-outbox.sqlite3"
 HANDED_OVER = (Status.SENT, Status.ACKNOWLEDGED)  # local statuses acked as "acknowledged"
 # Final local statuses that are ack statuses on the shore too; the others are acked "failed".
@@ -349,6 +355,11 @@ class ShoreLink:
                         expires_at=_when(wire.get("expires_at")),
                         uid=uid,
                     )
+            except (IntegrityError, ValidationError):
+                if selectors.bridge_command_vessel(uid=uid) != self.vessel.pk:
+                    raise
+                # Queued meanwhile from an SMS carrying the shore's reference: the same command.
+                log.info("shore command %s came by SMS while it was being polled", key)
             except (CatalogError, CommandError) as exc:
                 # Refused here (the glider's catalog, an inactive vessel): the shore hears why.
                 log.warning("shore command %s refused here: %s", key, exc)
@@ -362,6 +373,7 @@ class ShoreLink:
 
     def do_one_report_results(self) -> bool:
         """Queue an ack for each shore command whose progress here is news (no network)."""
+        self._claim_texted()
         running = dict(self.outbox.commands_interrupted())
         if not running:
             return False
@@ -388,6 +400,20 @@ class ShoreLink:
             self._handed_over_acked.discard(key)
             queued += 1
         return queued > 0
+
+    def _claim_texted(self) -> None:
+        """Track the shore's commands that came by SMS (``sms.services.incoming`` queued them
+        under the shore's uid) like polled ones, so that their acks go up by uid. One polled
+        first is claimed already: claiming again does nothing."""
+        after = self.outbox.counter(SMS_COMMAND_WATERMARK)
+        texted = selectors.bridge_shore_commands_by_sms_after(
+            vessel=self.vessel, created_by=CREATED_BY, after=after
+        )
+        for _pk, uid, kind in texted:
+            if self.outbox.command_claim(str(uid), kind):
+                log.info("shore command %s came by SMS; its acks go up by uid", uid)
+        if texted:
+            self._set_counter(SMS_COMMAND_WATERMARK, texted[-1][0])
 
     def do_one_flush_acks(self) -> bool:
         """Send the queued acks, oldest first; True if any left the outbox."""

@@ -4,9 +4,9 @@ answered; everything else is logged and not answered).
 
 One module per sub-domain: ``incoming`` (the handle path), ``replies`` (when and what is
 answered), ``outgoing`` (the modem's queue), ``positions`` (the glider's position SMS),
-``numbers``, ``shore`` (the shore link's
-uploads). The public names are re-exported here; patch a name where it is looked up (its
-module), not here.
+``numbers``, ``shore`` (the shore link's uploads), ``route`` (a shore command to its glider by
+SMS). The public names are re-exported here; patch a name where it is looked up (its module),
+not here.
 """
 
 from sms.services._common import DETAIL_MAX, TEXT_STORE_MAX
@@ -29,6 +29,7 @@ from sms.services.positions import (
     sms_position_queue,
 )
 from sms.services.replies import sms_replies_due
+from sms.services.route import sms_send_command
 from sms.services.shore import (
     SMS_TIMES,
     NumbersReplaced,
@@ -65,5 +66,6 @@ __all__ = [
     "sms_outgoing_pending",
     "sms_position_queue",
     "sms_replies_due",
+    "sms_send_command",
     "validation_message",
 ]

@@ -7,10 +7,12 @@ import datetime as dt
 import functools
 import hashlib
 import logging
+import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from django.conf import settings
+from django.core.exceptions import ValidationError
 from django.db import IntegrityError, transaction
 from django.db.models import Exists, OuterRef
 
@@ -18,7 +20,7 @@ from commands.errors import CommandError
 from commands.models import Command, Source
 from commands.services import command_enqueue
 from edge_client.contract.kinds import WAVE_GLIDER
-from sms import language
+from sms import command_text, language
 from sms.language import Answer, Item, ItemKind
 from sms.level2.inner import InnerCommandTable
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Outcome, Role, SmsMessage
@@ -89,6 +91,9 @@ def sms_handle_incoming(
        for their outcome until the window passes (:func:`sms_replies_due`), so that it can
        say ``OK`` or ``FAILED …`` rather than ``QUEUED``. ``readings`` (the glider's live
        sensor readings) answer ``#STATUS`` before the last fix's.
+    7. A text ending with a shore reference (``ref:…``, :mod:`sms.command_text`: the shore
+       texted one of its commands) is that one command, queued under the shore command's uid
+       and created by ``shore``; a uid known here already is answered ``DUPLICATE``.
 
     Everything is written in one transaction.
     """
@@ -183,13 +188,18 @@ def _handle(
         logged = _logged(message, Outcome.RATE_LIMITED, f"{limit}; {again}")
         notice = replying.rate_notice(message, entry, until, send_replies=send_replies)
         return replace(logged, replies=(notice,) if notice else ())
-    items = language.parse(text, vessel_kind=vessel.kind, table=table)
+    rest, shore_uid = command_text.split_reference(text)
+    items = language.parse(rest, vessel_kind=vessel.kind, table=table)
+    if shore_uid is not None:
+        items = _one_shore_command(items, shore_uid)
     message.parsed = [item.as_dict() for item in items]
+    if shore_uid is not None:
+        message.parsed[0]["shore_uid"] = str(shore_uid)
     if entry.role != Role.CONTROL and any(item.commanding for item in items):
         return _logged(message, Outcome.REFUSED, "query role: may not command")
     message.authorised = True
     answers, queued = _carry_out(
-        items, vessel=vessel, sender=e164, now=received_at, readings=readings
+        items, vessel=vessel, sender=e164, now=received_at, readings=readings, shore_uid=shore_uid
     )
     commands = [command for _, command in queued]
     message.outcome = Outcome.ERROR if any(a.error for a in answers) else Outcome.ACCEPTED
@@ -276,12 +286,20 @@ def _carry_out(
     sender: str,
     now: dt.datetime,
     readings: Mapping[str, float] | None = None,
+    shore_uid: uuid.UUID | None = None,
 ) -> tuple[list[Answer], list[tuple[int, Command]]]:
-    """One answer per item, in order, and the commands queued (with their answer's index)."""
+    """One answer per item, in order, and the commands queued (with their answer's index).
+    With ``shore_uid`` (the SMS carried the shore's reference) its one command is the shore's:
+    see :func:`_take_from_shore`."""
     answers: list[Answer] = []
     queued: list[tuple[int, Command]] = []
     for item in items:
-        if item.kind == ItemKind.COMMAND:
+        if item.kind == ItemKind.COMMAND and shore_uid is not None:
+            answer, taken = _take_from_shore(item, vessel=vessel, uid=shore_uid)
+            if taken is not None:
+                queued.append((len(answers), taken))
+            answers.append(answer)
+        elif item.kind == ItemKind.COMMAND:
             try:
                 command = command_enqueue(
                     vessel=vessel,
@@ -299,3 +317,42 @@ def _carry_out(
             answers.append(replying.answer_item(vessel, item, now, readings))
     replying.say_superseded(answers, queued)
     return answers, queued
+
+
+def _one_shore_command(items: list[Item], uid: uuid.UUID) -> list[Item]:
+    """The items of an SMS that carries a shore reference: one command (or its refusal), or
+    one error; a reference names one command, never a query or several."""
+    if len(items) == 1 and items[0].kind in (ItemKind.COMMAND, ItemKind.ERROR) and items[0].command:
+        return items
+    reason = f"a shore reference goes with one command (ref {uid})"
+    return [Item(ItemKind.ERROR, "", error=reason, commanding=True)]
+
+
+def _take_from_shore(
+    item: Item, *, vessel: Vessel, uid: uuid.UUID
+) -> tuple[Answer, Command | None]:
+    """Queue an SMS's command as the shore's own, under the shore's uid (created by
+    ``shore``: the shore link acks it up by uid, and never queues that uid again from a poll);
+    a uid known here already is answered as a duplicate and not run twice."""
+    known = Command.objects.filter(uid=uid).values_list("vessel_id", "status").first()
+    if known is not None and known[0] != vessel.pk:
+        answer = language.answer_command(item, "ERR ref names another vessel's command", error=True)
+        return answer, None
+    if known is not None:
+        return language.answer_command(item, f"DUPLICATE ({known[1]} here)"), None
+    try:
+        with transaction.atomic():  # a savepoint: a poll of the same uid racing this one
+            command = command_enqueue(
+                vessel=vessel,
+                kind=item.command,
+                params=dict(item.params),
+                source=Source.SMS,
+                created_by=command_text.SHORE_CREATED_BY,
+                uid=uid,
+            )
+    except (IntegrityError, ValidationError):
+        logger.info("shore command %s came by SMS and by the shore link at once", uid)
+        return language.answer_command(item, "DUPLICATE (queued here)"), None
+    except CommandError as exc:
+        return language.answer_command(item, f"ERR {exc.message}", error=True), None
+    return language.answer_command(item, "QUEUED"), command

@@ -21,6 +21,7 @@ from commands.models import Command
 from edge_client.contract.batch import BatchAnswer
 from links.models import Transport
 from links.services import link_count
+from sms.command_text import split_reference
 from sms.errors import InvalidNumber
 from sms.gsm7 import on_air
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SendStatus, SmsMessage
@@ -202,12 +203,31 @@ def _count_on_link(vessel: Vessel, entry: Mapping[str, Any]) -> None:
     nbytes, segments = on_air(entry.get("text", ""))
     if entry["direction"] == Direction.IN:
         at = entry.get("received_at") or entry.get("modem_timestamp") or entry["created_at"]
+        if _sent_from_here(vessel, entry.get("text", "")):
+            # The shore's own command SMS, as the glider got it: counted when the shore sent it.
+            link_count(vessel_id=vessel.pk, transport=Transport.SMS, at=at, contact=True)
+            return
         link_count(vessel_id=vessel.pk, transport=Transport.SMS, at=at, contact=True,
                    messages_in=1, bytes_in=nbytes, credits=segments)  # fmt: skip
     elif entry.get("status") == SendStatus.SENT:
         at = entry.get("sent_at") or entry["created_at"]
         link_count(vessel_id=vessel.pk, transport=Transport.SMS, at=at,
                    messages_out=1, bytes_out=nbytes, credits=segments)  # fmt: skip
+
+
+def _sent_from_here(vessel: Vessel, text: str) -> bool:
+    """Whether an SMS the glider received is one the shore sent it (sms_send_command): its
+    text carries the reference of a command of the vessel that this shore texted, sent."""
+    _rest, uid = split_reference(text)
+    if uid is None:
+        return False
+    return SmsMessage.objects.filter(
+        vessel=vessel,
+        direction=Direction.OUT,
+        origin_id__isnull=True,
+        status=SendStatus.SENT,
+        commands__uid=uid,
+    ).exists()
 
 
 def sms_log_entry_store(*, vessel: Vessel, entry: Mapping[str, Any]) -> bool:

@@ -1,0 +1,222 @@
+"""The shore's SMS route (sms.services.route.sms_send_command): a command texted to its glider
+through the shore's SMS sender (the alerts' modem, here the modem simulator through the real
+driver; or an HTTP gateway, here a local server), logged, and counted once, as sent."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from typing import Any
+
+import pytest
+from django.utils import timezone
+
+from alerts.notify.sms import ModemSender
+from commands.models import Command
+from commands.services import command_enqueue
+from links.models import LinkDay
+from sms.command_text import read_reference, render, split_reference
+from sms.errors import NotSayable, RouteNotConfigured
+from sms.gsm7 import on_air
+from sms.models import Direction, SendStatus, SmsMessage
+from sms.modem import ModemConfig
+from sms.modem.simulator import ModemServer, SimulatedModem
+from sms.services import sms_log_upload, sms_send_command
+from vessels.models import Vessel
+
+pytestmark = pytest.mark.django_db
+
+GLIDER_PHONE = "+61400000077"
+SHORE_PHONE = "+61400000001"
+
+
+@pytest.fixture
+def texted_glider(glider: Vessel) -> Vessel:
+    glider.sms_number = GLIDER_PHONE
+    glider.save(update_fields=["sms_number"])
+    return glider
+
+
+@pytest.fixture
+def sim() -> Iterator[tuple[SimulatedModem, ModemServer]]:
+    modem = SimulatedModem()
+    with ModemServer(modem, "tcp:0") as server:
+        yield modem, server
+
+
+def fast(url: str) -> ModemConfig:
+    return ModemConfig(url, command_timeout_s=1, send_timeout_s=2, wake_timeout_s=0.3,
+                       settle_s=0.05, relist_interval_s=None)  # fmt: skip
+
+
+def fhead(vessel: Vessel, bearing: int = 230) -> Command:
+    return command_enqueue(vessel=vessel, kind="fhead", params={"bearing": bearing},
+                           created_by="operator")  # fmt: skip
+
+
+def sms_row(vessel: Vessel) -> LinkDay | None:
+    return LinkDay.objects.filter(vessel=vessel, transport="sms").first()
+
+
+def test_a_command_goes_through_the_modem_logged_and_counted_once(texted_glider, sim):
+    modem, server = sim
+    command = fhead(texted_glider)
+    sender = ModemSender(fast(server.url))
+    now = timezone.now()
+    try:
+        message = sms_send_command(command, sender=sender, now=now)
+    finally:
+        sender.close()
+    ((number, text, reference),) = [(s.number, s.text, s.reference) for s in modem.sent]
+    assert number == GLIDER_PHONE and text == render("fhead", {"bearing": 230}, command.uid)
+    assert text.startswith("#FHEAD 230 ref:") and read_reference(text.split()[-1]) == command.uid
+    message.refresh_from_db()
+    assert (message.direction, message.status, message.number) == ("out", "sent", GLIDER_PHONE)
+    assert (message.text, message.reference, message.sent_at) == (text, str(reference), now)
+    assert list(message.commands.all()) == [command]
+    assert message.parsed == [{"route": "sms", "command": "fhead", "uid": str(command.uid)}]
+    row = sms_row(texted_glider)
+    assert (row.messages_out, row.bytes_out, row.credits) == (1, on_air(text)[0], 1)
+    assert (row.messages_in, row.last_contact_at) == (0, None)  # sending to it is not contact
+    assert Command.objects.get(pk=command.pk).status == "queued"  # the glider's ack moves it on
+
+
+def test_the_configured_gateway_is_used_when_no_sender_is_given(texted_glider, gateway, settings):
+    settings.ALERTS_SMS_MODEM_URL, settings.ALERTS_SMS_GATEWAY_URL = "", gateway.url
+    settings.ALERTS_SMS_GATEWAY_TOKEN = "gw-token"
+    command = command_enqueue(vessel=texted_glider, kind="waypoint",
+                              params={"index": 1, "lat": -32.038, "lon": 115.3325})  # fmt: skip
+    message = sms_send_command(command)
+    ((headers, body),) = gateway.received
+    assert headers["Authorization"] == "Bearer gw-token"
+    assert body == {"to": GLIDER_PHONE, "text": message.text}
+    assert message.text.startswith("#WAYPOINT 1 -32.038 115.3325 ref:")
+    assert message.status == SendStatus.SENT and message.reference == ""
+    assert sms_row(texted_glider).messages_out == 1
+
+
+@pytest.mark.parametrize(("answer", "reason"), [(401, "answered 401"), (503, "answered 503")])
+def test_a_gateway_refusal_is_logged_failed_with_the_reason_not_raised_nor_counted(
+    texted_glider, gateway, settings, answer, reason, caplog
+):
+    settings.ALERTS_SMS_MODEM_URL, settings.ALERTS_SMS_GATEWAY_URL = "", gateway.url
+    gateway.answers = [answer]
+    command = fhead(texted_glider)
+    message = sms_send_command(command)
+    stored = SmsMessage.objects.get(pk=message.pk)
+    assert stored.status == SendStatus.FAILED and reason in stored.status_detail
+    assert stored.status_detail.startswith("not sent: ") and stored.sent_at is None
+    assert sms_row(texted_glider) is None
+    assert any(str(command.uid) in r.getMessage() and reason in r.getMessage()
+               for r in caplog.records if r.levelname == "WARNING")  # fmt: skip
+
+
+def test_a_modem_that_refuses_or_is_not_there_fails_the_sms_not_the_caller(
+    texted_glider, sim, tmp_path
+):
+    modem, server = sim
+    modem.faults.send_error = 21  # short message transfer rejected
+    sender = ModemSender(fast(server.url))
+    try:
+        refused = sms_send_command(fhead(texted_glider, 10), sender=sender)
+    finally:
+        sender.close()
+    assert refused.status == SendStatus.FAILED and "21" in refused.status_detail
+    missing = sms_send_command(
+        fhead(texted_glider, 20), sender=ModemSender(fast(str(tmp_path / "ttyUSB9")))
+    )
+    assert missing.status == SendStatus.FAILED and "cannot open" in missing.status_detail
+    assert modem.sent == [] and sms_row(texted_glider) is None
+
+
+def test_what_cannot_go_is_refused_by_name_before_anything_is_written(
+    glider, texted_glider, vessel_a, settings, sim
+):
+    _modem, server = sim
+    sender = ModemSender(fast(server.url))
+    mission = command_enqueue(vessel=texted_glider, kind="hold", params={})
+    Command.objects.filter(pk=mission.pk).update(kind="mission", params={"items": []})
+    mission.refresh_from_db()
+    with pytest.raises(NotSayable, match="mission: a Wave Glider has no SMS word"):
+        sms_send_command(mission, sender=sender)
+    settings.ALERTS_SMS_MODEM_URL = settings.ALERTS_SMS_GATEWAY_URL = ""
+    with pytest.raises(RouteNotConfigured, match="ALERTS_SMS_MODEM_URL or ALERTS_SMS_GATEWAY"):
+        sms_send_command(fhead(texted_glider))
+    Vessel.objects.filter(pk=glider.pk).update(sms_number="")
+    with pytest.raises(RouteNotConfigured, match="Wave Glider has no SMS number"):
+        sms_send_command(fhead(Vessel.objects.get(pk=glider.pk)), sender=sender)
+    boat = command_enqueue(vessel=vessel_a, kind="hold", params={})
+    with pytest.raises(RouteNotConfigured, match="not a Wave Glider"):
+        sms_send_command(boat, sender=sender)
+    sender.close()
+    assert not SmsMessage.objects.exists() and not LinkDay.objects.exists()
+
+
+def test_the_gliders_log_of_a_texted_command_is_not_counted_again(texted_glider, sim):
+    """The glider logs the shore's SMS as received and uploads its log: that SMS was counted
+    when the shore sent it; the glider's own texts are counted as before."""
+    _modem, server = sim
+    sender = ModemSender(fast(server.url))
+    sent = sms_send_command(fhead(texted_glider), sender=sender)
+    failed_cmd = fhead(texted_glider, 99)
+    sender.close()
+    at = timezone.now().replace(microsecond=0)
+    never_sent = render("fhead", {"bearing": 99}, failed_cmd.uid)  # the shore never sent it
+    entries = [
+        upload_entry("g1", sent.text, at),
+        upload_entry("g2", "#STATUS", at + dt.timedelta(seconds=1)),
+        upload_entry("g3", never_sent, at + dt.timedelta(seconds=2)),
+    ]
+    answer = sms_log_upload(vessel=texted_glider, entries=entries)
+    assert answer.accepted == 3
+    row = sms_row(texted_glider)
+    assert (row.messages_out, row.credits) == (1, 3)  # the shore's SMS once, then #STATUS, g3
+    assert row.messages_in == 2 and row.bytes_in == on_air("#STATUS")[0] + on_air(never_sent)[0]
+    assert row.last_contact_at == at + dt.timedelta(seconds=2)  # still heard from
+    assert split_reference(sent.text)[1] == sent.commands.get().uid
+
+
+def upload_entry(ident: str, text: str, at: dt.datetime) -> dict[str, Any]:
+    return {"id": ident, "direction": Direction.IN, "number": SHORE_PHONE, "text": text,
+            "created_at": at, "received_at": at, "authorised": True,
+            "outcome": "accepted"}  # fmt: skip
+
+
+# -- a local HTTP SMS gateway ------------------------------------------------------------------
+
+
+@dataclass
+class Gateway:
+    url: str = ""
+    answers: list[int] = field(default_factory=list)
+    received: list[tuple[dict[str, str], Any]] = field(default_factory=list)
+
+
+@pytest.fixture
+def gateway() -> Iterator[Gateway]:
+    gw = Gateway()
+
+    class Handler(BaseHTTPRequestHandler):
+        def do_POST(self) -> None:  # noqa: N802 - http.server's name
+            body = self.rfile.read(int(self.headers.get("Content-Length", 0)))
+            gw.received.append((dict(self.headers.items()), json.loads(body)))
+            status = gw.answers.pop(0) if gw.answers else 202
+            self.send_response(status)
+            self.send_header("Content-Length", "0")
+            self.end_headers()
+
+        def log_message(self, *_args: Any) -> None:
+            pass
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+    server.daemon_threads = True
+    gw.url = f"http://127.0.0.1:{server.server_address[1]}/sms"
+    thread = threading.Thread(target=server.serve_forever, args=(0.05,), daemon=True)
+    thread.start()
+    yield gw
+    server.shutdown()
+    server.server_close()
