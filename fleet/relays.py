@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import datetime as dt
 
+from alerts.notify.registry import sms_sender_from_settings
 from commands.models import Command
 from fleet.routing import Refused, Route, Sender
 from sbd.errors import SbdError
@@ -12,6 +13,9 @@ from sbd.models import Status as SbdStatus
 from sbd.rockblock import credits
 from sbd.services import sbd_send_command
 from sbd.transport import configured_transport
+from sms.errors import SmsRouteError
+from sms.models import SendStatus
+from sms.services import sms_send_command
 
 
 def sbd_sender() -> Sender | None:
@@ -39,10 +43,35 @@ def sbd_sender() -> Sender | None:
     return send
 
 
+def sms_sender() -> Sender | None:
+    """The shore's SMS modem or gateway, the one alerts text through (ALERTS_SMS_MODEM_URL or
+    ALERTS_SMS_GATEWAY_URL). A modem is opened for one text and closed after it: run_alerts
+    may want the same port, and it waits its turn on the port's lock."""
+    if sms_sender_from_settings() is None:
+        return None
+
+    def send(command: Command, now: dt.datetime) -> str:
+        sender = sms_sender_from_settings()
+        if sender is None:  # the settings changed under a running loop
+            raise Refused("the shore has no SMS sender any more")
+        try:
+            message = sms_send_command(command, sender=sender, now=now)
+        except SmsRouteError as exc:
+            raise Refused(str(exc)) from None
+        finally:
+            sender.close()
+        if message.status != SendStatus.SENT:
+            raise Refused(f"the SMS to {message.number} failed: {message.status_detail}")
+        return f"sent by SMS to {message.number}: {message.text}"
+
+    return send
+
+
 def configured_senders() -> dict[Route, Sender]:
     """Every way out this site has configured."""
     senders: dict[Route, Sender] = {}
-    sbd = sbd_sender()
-    if sbd is not None:
-        senders[Route.SBD] = sbd
+    for route, make in ((Route.SBD, sbd_sender), (Route.SMS, sms_sender)):
+        sender = make()
+        if sender is not None:
+            senders[route] = sender
     return senders

@@ -1,6 +1,7 @@
 """A shore command to its glider by SMS (docs/links.md, 'Commands by SMS'): one SMS in the
 glider's own language with a reference to the command's uid (``sms.command_text``), sent
-through the shore's SMS sender (the alerts' modem or gateway), logged and counted.
+through the shore's SMS sender (the alerts' modem or gateway, which the caller passes: sms
+sits below alerts), logged and counted.
 
 Which link a command takes is not decided here: ``sms_send_command`` is called by whoever
 decides (the per-vessel routing), as ``sbd_send_command`` is for Iridium. It does not move the
@@ -11,13 +12,11 @@ from __future__ import annotations
 
 import datetime as dt
 import logging
+from typing import Protocol
 
 from django.db import transaction
 from django.utils import timezone
 
-from alerts.notify.base import TransportError
-from alerts.notify.registry import sms_sender_from_settings
-from alerts.notify.sms import SmsSender
 from commands.models import Command
 from edge_client.contract.kinds import WAVE_GLIDER
 from links.models import Transport
@@ -26,7 +25,6 @@ from sms.command_text import render
 from sms.errors import RouteNotConfigured
 from sms.gsm7 import on_air
 from sms.models import Direction, SendStatus, SmsMessage
-from sms.modem import ModemError
 from sms.services._common import _save_checked
 from sms.services.outgoing import sms_mark_failed, sms_mark_sent
 
@@ -36,22 +34,29 @@ logger = logging.getLogger(__name__)
 ROUTE_KEY = "route"
 
 
+class SmsSender(Protocol):
+    """What sends: alerts.notify.sms's ModemSender or GatewaySender (fleet.relays makes one
+    from the settings). ``send_sms`` returns the modem's reference, if it gives one, and
+    raises on a text not sent."""
+
+    def send_sms(self, number: str, text: str) -> str | None: ...
+
+
 def sms_send_command(
-    command: Command, *, sender: SmsSender | None = None, now: dt.datetime | None = None
+    command: Command, *, sender: SmsSender, now: dt.datetime | None = None
 ) -> SmsMessage:
     """Text ``command`` to its vessel's own number; the outgoing SMS as it ended.
 
     1. Raises (SmsRouteError, nothing written or sent) when it cannot go: the vessel is not a
        Wave Glider or has no SMS number (RouteNotConfigured), the command cannot be said in
-       one SMS (NotSayable: a mission, a fence, a long ``#FCOURSE``), or the shore has no
-       sender (RouteNotConfigured: neither ALERTS_SMS_MODEM_URL nor ALERTS_SMS_GATEWAY_URL).
+       one SMS (NotSayable: a mission, a fence, a long ``#FCOURSE``).
     2. The SMS is logged as an outgoing message of the vessel, linked to the command, before
        it is handed over: a crash while sending leaves it *pending*, never unrecorded.
     3. Sent: marked *sent* (with the modem's reference when it gives one) and counted on the
        vessel's SMS link in the same transaction: once, as sent. Refused or not reachable: marked
        *failed* with the reason and logged; nothing raised, nothing counted.
 
-    ``sender`` is closed only when it was made here from the settings.
+    ``sender`` stays open: the caller closes it (one modem session for a pass's texts).
     """
     vessel = command.vessel
     if vessel.kind != WAVE_GLIDER:
@@ -59,17 +64,7 @@ def sms_send_command(
     if not vessel.sms_number:
         raise RouteNotConfigured(f"{vessel.name} has no SMS number")
     text = render(command.kind, command.params, command.uid)
-    own = sender is None
-    sender = sender or sms_sender_from_settings()
-    if sender is None:
-        raise RouteNotConfigured(
-            "the shore has no SMS sender: set ALERTS_SMS_MODEM_URL or ALERTS_SMS_GATEWAY_URL"
-        )
-    try:
-        return _send(command, text, sender, now or timezone.now())
-    finally:
-        if own:
-            sender.close()
+    return _send(command, text, sender, now or timezone.now())
 
 
 def _send(command: Command, text: str, sender: SmsSender, now: dt.datetime) -> SmsMessage:
@@ -90,7 +85,9 @@ def _send(command: Command, text: str, sender: SmsSender, now: dt.datetime) -> S
         message.commands.add(command)
     try:
         reference = sender.send_sms(vessel.sms_number, text)
-    except (TransportError, ModemError, OSError) as exc:
+    # Whatever the sender's way out raised (alerts' TransportError, a modem's error, a
+    # socket's): the text was not sent; it is said, never raised.
+    except Exception as exc:  # noqa: BLE001
         reason = f"not sent: {exc}"
         logger.warning("command %s to %s by SMS %s", command.uid, vessel.sms_number, reason)
         sms_mark_failed(message=message, reason=reason, now=now)

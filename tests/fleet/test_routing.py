@@ -19,6 +19,7 @@ from fleet.routing import Refused, route_pending, routing_summary
 from links.routing import Route
 from links.services import link_count
 from tests.sbd.conftest import IMEI, MtEndpoint, mt_endpoint, sbd_vessel  # noqa: F401 (fixtures)
+from tests.sms.test_route import Gateway, gateway  # noqa: F401 (a fixture)
 from vessels.models import Vessel
 
 pytestmark = pytest.mark.django_db
@@ -218,3 +219,53 @@ def test_a_silent_vessel_over_budget_waits_for_http(sbd_vessel: Vessel) -> None:
     sbd_vessel.sbd_daily_credit_budget = 0
     summary = routing_summary(sbd_vessel, {Route.SBD: lambda c, now: "sent"})
     assert summary == "Queued commands wait for HTTP: never heard over HTTP, but sbd budget spent."
+
+
+# -- SMS to a glider, through the shore's HTTP SMS gateway (a local server standing in) -------
+
+
+def test_a_silent_glider_gets_its_command_by_sms_before_sbd(
+    glider: Vessel,
+    gateway: Gateway,  # noqa: F811 (the fixture)
+    mt: MtEndpoint,
+    settings: Any,
+) -> None:
+    settings.ALERTS_SMS_MODEM_URL, settings.ALERTS_SMS_GATEWAY_URL = "", gateway.url
+    glider.sms_number, glider.imei = "+61400000077", IMEI
+    glider.save()
+    heard_over_http(glider, ago_s=4 * glider.telemetry_period_s)
+    command = command_enqueue(vessel=glider, kind="fhead", params={"bearing": 230})
+    senders = configured_senders()
+    assert set(senders) == {Route.SMS, Route.SBD}
+    report = route_pending(senders=senders)
+    assert report.relayed == [(str(command.uid), Route.SMS)]
+    [(_headers, body)] = gateway.received
+    assert body["to"] == "+61400000077" and body["text"].startswith("#FHEAD 230 ref:")
+    assert mt.posts == []  # the cheaper link took it: SBD is not paid for as well
+    command.refresh_from_db()
+    assert command.relay == Relay.SMS
+    [note] = notes(command)
+    assert (
+        note.startswith("silent over HTTP for 4 min (its schedule: 60 s)")
+        and "sent by SMS to +61400000077" in note
+    )
+
+
+def test_a_failed_sms_hands_the_command_to_sbd(
+    glider: Vessel,
+    gateway: Gateway,  # noqa: F811 (the fixture)
+    mt: MtEndpoint,
+    settings: Any,
+) -> None:
+    settings.ALERTS_SMS_MODEM_URL, settings.ALERTS_SMS_GATEWAY_URL = "", gateway.url
+    gateway.answers = [503]
+    glider.sms_number, glider.imei = "+61400000077", IMEI
+    glider.save()
+    command = command_enqueue(vessel=glider, kind="hold", params={}, urgent=True)
+    report = route_pending(senders=configured_senders())
+    assert report.relayed == [(str(command.uid), Route.SBD)]
+    assert len(gateway.received) == 1 and len(mt.posts) == 1
+    command.refresh_from_db()
+    assert command.relay == Relay.SBD
+    [note] = notes(command)
+    assert note.startswith("urgent: sent by Iridium SBD")
