@@ -329,3 +329,29 @@ def test_with_http_healthy_sbd_stays_quiet_unless_the_modem_rings(
     assert client.executor.executed == [uid]
     assert [m.data for m in sim.received] == [b""]  # one mailbox check, no fixes
     assert "AT+SBDIXA" in sim.commands
+
+
+def test_http_counts_as_failing_from_its_last_good_exchange(shore, tmp_path):
+    config = load_config(None, {"server": shore.url, "key": "k", "mavlink": "udpout:127.0.0.1:9",
+                                "outbox": str(tmp_path / "o.sqlite3")})  # fmt: skip
+    box = Outbox(config.outbox.path)
+    client = EdgeClient(
+        config,
+        transport=HttpTransport(base_url=shore.url, key="k", retries=0, backoff_s=0),
+        link=MavlinkLink(config.mavlink),
+        outbox=box,
+    )
+    assert client.sbd is None  # no [sbd] port: no modem, no thread
+    client.uplink_once(time.monotonic())  # the port is closed: a failure, the first one
+    first = time.monotonic()
+    assert 0 <= client.http_failing_for(first) < 5
+    shore.up()
+    before = time.monotonic()
+    client.uplink_once(before)
+    after = time.monotonic()
+    assert client.http_failing_for(after) is None
+    shore.srv.respond = lambda *_: (503, {}, None)  # down again
+    client.uplink_once(time.monotonic() + 1000)  # a poll is due again
+    # Failing since the good exchange, not since this round.
+    assert after - before + 100 >= client.http_failing_for(after + 100) >= 100 - (after - before)
+    box.close()
