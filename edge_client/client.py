@@ -8,6 +8,9 @@ Threads and what each owns:
 - ``uplink``: the only thread that talks to the server: sends queued acks, then fixes in
   batches, then polls for commands unless a telemetry answer already carried their list (one
   exchange per period). A slow or absent server delays only this thread;
+- ``sbd`` (:class:`SbdFallback`, only with ``[sbd] port``): the only thread that talks to the
+  Iridium SBD modem: the newest fixes by SBD while HTTP keeps failing, commands from the shore
+  when the modem rings (sbd_fallback.py);
 - the caller's thread (:meth:`EdgeClient.run`): every telemetry period puts a fix into the
   outbox, pings the systemd watchdog while the other threads are alive, and watches the stop
   flag that SIGTERM sets.
@@ -26,6 +29,7 @@ import time
 from collections.abc import Callable
 
 from edge_client import systemd
+from edge_client.commands import Command
 from edge_client.config import Config
 from edge_client.contract import exchange
 from edge_client.contract.backoff import after_failures
@@ -34,6 +38,7 @@ from edge_client.executor import Executor
 from edge_client.fix_upload import TELEMETRY_PATH, post_fixes  # noqa: F401 (shore.py, cli.py)
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.outbox import Item, Outbox, settle_fix_batch
+from edge_client.sbd_fallback import SbdFallback
 from edge_client.transports.base import Transport, TransportError
 
 log = logging.getLogger(__name__)
@@ -110,6 +115,20 @@ class EdgeClient:
         # already put off once to wait for the next one.
         self._sampled_at: float | None = None
         self._waited_for_fix = False
+        # Since when HTTP fails (monotonic): the last good exchange, or the first failed one
+        # when none has worked since the start. None while it works.
+        self._last_ok_at: float | None = None
+        self._failing_since: float | None = None
+        self.sbd: SbdFallback | None = None
+        if config.sbd.port:
+            self.sbd = SbdFallback(
+                config.sbd,
+                config.telemetry.channels,
+                outbox,
+                failing_for=self.http_failing_for,
+                on_command=self.take_command,
+                stop=self.stop_event,
+            )
 
     # -- the main thread ----------------------------------------------------------------------
 
@@ -120,6 +139,8 @@ class EdgeClient:
         self.executor.start()
         self._uplink = threading.Thread(target=self._uplink_loop, name="uplink", daemon=True)
         self._uplink.start()
+        if self.sbd is not None:
+            self.sbd.start()
         systemd.ready(f"talking to {self.config.mavlink.connection}")
         log.info(
             "edge client ready: %s -> %s (%s transport)",
@@ -172,6 +193,7 @@ class EdgeClient:
             and self.executor.is_alive()
             and self._uplink is not None
             and self._uplink.is_alive()
+            and (self.sbd is None or self.sbd.is_alive())
         )
 
     def shutdown(self) -> None:
@@ -183,6 +205,9 @@ class EdgeClient:
         if self._uplink is not None:
             # An in-flight request is bounded by the transport timeout; its items stay queued.
             self._uplink.join(timeout=5)
+        if self.sbd is not None:
+            # A session under way is bounded by the modem's timeout; its wait is cut short.
+            self.sbd.join(timeout=5)
         self.link.stop()
         self.transport.close()
         log.info(
@@ -248,7 +273,17 @@ class EdgeClient:
             return None
         return self._sampled_at + telemetry + max(FIX_GRACE_S, telemetry / 4)
 
+    def http_failing_for(self, now: float) -> float | None:
+        """How long (s) HTTP has been failing at ``now`` (monotonic), None while it works."""
+        since = self._failing_since
+        return None if since is None else max(0.0, now - since)
+
     def _report(self, ok: bool, exc: TransportError | None = None) -> None:
+        now = time.monotonic()
+        if ok:
+            self._last_ok_at, self._failing_since = now, None
+        elif self._failing_since is None:
+            self._failing_since = self._last_ok_at if self._last_ok_at is not None else now
         if ok and self.server_ok is not True:
             log.info("server reachable; %d fixes queued", self.outbox.count("fix"))
         elif not ok and self.server_ok is not False:
@@ -340,3 +375,7 @@ class EdgeClient:
         new = self.executor.offer(commands)
         if new:
             log.info("%d new command(s) from the server", new)
+
+    def take_command(self, command: Command) -> bool:
+        """A command from another link (SBD): run unless its uid came before, by any link."""
+        return self.executor.offer_command(command)

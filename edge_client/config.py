@@ -29,6 +29,13 @@ Example file (every table and key is optional except where a value has no defaul
     [transport]
     kind = "http"                           # or "modem"
 
+    [sbd]                                   # an Iridium SBD modem: the fallback link
+    port = "/dev/ttyUSB1"                   # a pyserial URL or device; absent: no SBD
+    baudrate = 19200
+    fallback_after_s = 300                  # HTTP failing this long: fixes go by SBD
+    period_s = 900                          # one SBD message this often while it does
+    mailbox_check = true                    # answer ring alerts, fetch waiting MT messages
+
     [readings.water_temp_c]                 # extra sensor values sent in a fix's "readings"
     message = "SCALED_PRESSURE2"
     field = "temperature"
@@ -132,6 +139,21 @@ class TransportConfig:
 
 
 @dataclass(frozen=True)
+class SbdLinkConfig:
+    """[sbd]: the boat's Iridium SBD modem, the link used when HTTP fails (sbd_fallback.py)."""
+
+    port: str = ""  # a pyserial URL or device; empty: the boat has no SBD modem
+    baudrate: int = 19200
+    # HTTP must have been failing this long before fixes go by SBD (each message costs).
+    fallback_after_s: float = 300.0
+    # One SBD session this often while HTTP keeps failing.
+    period_s: float = 900.0
+    # Answer ring alerts at once (the shore sent a command) and fetch the MT messages still
+    # waiting at the gateway; off: sessions only send.
+    mailbox_check: bool = True
+
+
+@dataclass(frozen=True)
 class ReadingSource:
     """One extra reading: ``<message>.<field> * scale`` from the autopilot, sent as ``name``."""
 
@@ -149,6 +171,7 @@ class Config:
     commands: CommandsConfig = field(default_factory=CommandsConfig)
     outbox: OutboxConfig = field(default_factory=OutboxConfig)
     transport: TransportConfig = field(default_factory=TransportConfig)
+    sbd: SbdLinkConfig = field(default_factory=SbdLinkConfig)
     readings: tuple[ReadingSource, ...] = ()
     log_level: str = "INFO"
 
@@ -244,7 +267,17 @@ def _table(raw: dict[str, Any], path: tuple[str, ...], source: str) -> dict[str,
 # --- 3. building -----------------------------------------------------------------------------
 
 _TOP_LEVEL_KEYS = frozenset(
-    {"server", "mavlink", "telemetry", "commands", "outbox", "transport", "readings", "log_level"}
+    {
+        "server",
+        "mavlink",
+        "telemetry",
+        "commands",
+        "outbox",
+        "transport",
+        "sbd",
+        "readings",
+        "log_level",
+    }
 )
 
 
@@ -263,6 +296,7 @@ def _build_config(raw: dict[str, Any], source: str) -> Config:
         commands=_build(CommandsConfig, raw.get("commands", {}), f"{source}: [commands]"),
         outbox=_build(OutboxConfig, raw.get("outbox", {}), f"{source}: [outbox]"),
         transport=transport,
+        sbd=_build(SbdLinkConfig, raw.get("sbd", {}), f"{source}: [sbd]"),
         readings=_readings(raw.get("readings", {}), source),
         log_level=log_level,
     )
@@ -411,6 +445,7 @@ def _check(config: Config, source: str) -> None:
         raise ConfigError(f"{source}: [mavlink] connection is required")
     _check_positive(config, source)
     _check_transport(config.transport, source)
+    _check_sbd(config.sbd, source)
     if not config.outbox.path:
         raise ConfigError(f"{source}: [outbox] path is required")
 
@@ -460,3 +495,14 @@ def _check_transport(transport: TransportConfig, source: str) -> None:
         )
     if transport.kind == "modem" and not transport.modem.trigger:
         raise ConfigError(f"{source}: [transport.modem] trigger cannot be empty")
+
+
+def _check_sbd(sbd: SbdLinkConfig, source: str) -> None:
+    if not sbd.port:
+        return  # no modem: the other values are not used
+    if sbd.baudrate <= 0 or sbd.period_s <= 0:
+        raise ConfigError(f"{source}: [sbd] baudrate and period_s must be greater than zero")
+    if sbd.fallback_after_s < 0:
+        raise ConfigError(
+            f"{source}: [sbd] fallback_after_s cannot be negative, got {sbd.fallback_after_s}"
+        )

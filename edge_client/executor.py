@@ -176,16 +176,21 @@ class Executor:
             except CommandError as exc:
                 log.warning("ignoring malformed command: %s", exc)
                 continue
-            if command.uid in self._known:
-                continue
-            self._known.add(command.uid)
-            # The claim is committed before the command runs: at most once, even across a crash.
-            if not self.outbox.command_claim(command.uid, command.kind):
-                log.debug("command %s already handled before; not running it again", command.uid)
-                continue
-            new += 1
-            self._queue.put(command)
+            new += self.offer_command(command)
         return new
+
+    def offer_command(self, command: Command) -> bool:
+        """Queue one command unless its uid was seen before, by any link (the poll, SBD).
+        Two links offering the same uid at once are safe: only one claim is ever committed."""
+        if command.uid in self._known:
+            return False
+        self._known.add(command.uid)
+        # The claim is committed before the command runs: at most once, even across a crash.
+        if not self.outbox.command_claim(command.uid, command.kind):
+            log.debug("command %s already handled before; not running it again", command.uid)
+            return False
+        self._queue.put(command)
+        return True
 
     def _run(self) -> None:
         while not self._stop.is_set():

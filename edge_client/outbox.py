@@ -290,6 +290,37 @@ class Outbox:
             ).fetchall()
         return [Item(id=r[0], kind=r[1], body=json.loads(r[2])) for r in rows]
 
+    def newest(self, kind: str, limit: int, after_id: int = 0) -> list[Item]:
+        """The newest ``limit`` items of ``kind`` with an id above ``after_id``, newest first
+        (the SBD fallback's pick). They stay queued. Fixes are committed first, as by peek."""
+        if kind == "fix":
+            self.commit()
+        with self._lock:
+            rows = self._db.execute(
+                "SELECT id, kind, body FROM outbox WHERE kind = ? AND id > ? "
+                "ORDER BY id DESC LIMIT ?",
+                (kind, after_id, limit),
+            ).fetchall()
+        return [Item(id=r[0], kind=r[1], body=json.loads(r[2])) for r in rows]
+
+    def set_fix_times(self, times: Sequence[tuple[int, Any]]) -> None:
+        """Give queued fixes new ``time`` values ((id, time) pairs; a fix gone meanwhile is
+        skipped): a fix also sent in a form that keeps whole seconds must reach the shore with
+        that same time by every link, or the shore stores it twice (it dedupes on the time)."""
+        with self._tx() as db:
+            for item_id, value in times:
+                row = db.execute(
+                    "SELECT body FROM outbox WHERE id = ? AND kind = 'fix'", (item_id,)
+                ).fetchone()
+                if row is None:
+                    continue
+                body = json.loads(row[0])
+                body["time"] = value
+                db.execute(
+                    "UPDATE outbox SET body = ? WHERE id = ?",
+                    (json.dumps(body, separators=(",", ":"), allow_nan=False), item_id),
+                )
+
     def remove(self, ids: Sequence[int]) -> None:
         if not ids:
             return

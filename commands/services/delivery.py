@@ -78,6 +78,9 @@ def _get_for_vessel(vessel: Vessel, uid: Any) -> Command:
         raise CommandNotFound(f"no command {uid} for this vessel") from None
 
 
+DELIVERED_ELSEWHERE = "acknowledged by the vessel before any poll: delivered by another link"
+
+
 @transaction.atomic
 def command_ack(
     *,
@@ -89,7 +92,8 @@ def command_ack(
 ) -> tuple[Command, bool]:
     """Record the vessel's report on a command; return (command, changed).
 
-    Idempotent: a repeated or stale ack (acknowledged after done) changes nothing.
+    Idempotent: a repeated or stale ack (acknowledged after done) changes nothing. A queued
+    command (no poll took it: it went by SBD or SMS) becomes sent, then takes the ack.
     Raises CommandNotFound, or TransitionError for an illegal report (done after cancelled,
     failed after done).
     """
@@ -102,8 +106,16 @@ def command_ack(
         *first, last = ACK_STATUSES
         raise CommandError(f"status must be {', '.join(first)} or {last}", field="status")
     command = _get_for_vessel(vessel, uid)
-    for _attempt in range(3):
+    for _attempt in range(4):  # a queued command takes one more step
         current = Status(command.status)
+        if current == Status.QUEUED:
+            # Not taken by a poll, yet the boat knows its uid: it came by another link (SBD,
+            # SMS), which only learns of the delivery now. Sent first, as a poll would have.
+            if not _transition(
+                command, Status.SENT, now=now, actor="boat", detail=DELIVERED_ELSEWHERE
+            ):
+                command.refresh_from_db()
+            continue
         if ack_is_stale(current, reported):
             return command, False
         check_transition(current, reported)  # raises TransitionError

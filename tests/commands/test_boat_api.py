@@ -225,9 +225,31 @@ def test_a_command_the_boat_replaced_is_acked_superseded(
         assert again.json()["status"] == "superseded"
 
 
-def test_acking_a_command_never_polled_is_a_409(boat_a: APIClient, command_a: Command) -> None:
-    response = boat_a.post(ack_url(command_a.uid), {"status": "acknowledged"}, format="json")
+@pytest.mark.parametrize("status", ["acknowledged", "done", "failed", "superseded"])
+def test_a_command_no_poll_took_is_acked_all_the_same(
+    boat_a: APIClient, command_a: Command, status: str
+) -> None:
+    # The boat got it by another link (an SBD message, an SMS): its ack is the delivery news.
+    response = boat_a.post(ack_url(command_a.uid), {"status": status}, format="json")
+    assert response.status_code == 200
+    assert response.json() == {"uid": str(command_a.uid), "status": status}
+    command_a.refresh_from_db()
+    assert command_a.status == status and command_a.sent_at is not None
+    events = [(e.from_status, e.to_status, e.actor) for e in command_a.events.all()]
+    assert events[1:] == [("queued", "sent", "boat"), ("sent", status, "boat")]
+    assert "another link" in command_a.events.get(to_status="sent").detail
+    # The poll that comes later (HTTP is back) no longer offers it.
+    assert boat_a.get(COMMANDS).json() == {"commands": []}
+
+
+def test_a_command_cancelled_before_any_poll_still_refuses_an_ack(
+    boat_a: APIClient, command_a: Command
+) -> None:
+    command_cancel(command=command_a, actor="alice")
+    response = boat_a.post(ack_url(command_a.uid), {"status": "done"}, format="json")
     assert response.status_code == 409
+    command_a.refresh_from_db()
+    assert command_a.status == Status.CANCELLED
 
 
 @pytest.mark.parametrize(

@@ -327,12 +327,11 @@ def test_acking_a_cancelled_command_is_an_illegal_transition(
     assert sent.status == Status.CANCELLED
 
 
-def test_acking_a_command_never_sent_is_an_illegal_transition(vessel_a: Vessel) -> None:
-    command = move_to(vessel_a)
-    with pytest.raises(TransitionError):
-        command_ack(vessel=vessel_a, uid=command.uid, status="acknowledged")
-    command.refresh_from_db()
-    assert command.status == Status.QUEUED
+def test_acking_a_command_no_poll_took_records_its_delivery_first(vessel_a: Vessel) -> None:
+    command = move_to(vessel_a)  # queued: it went by SBD or SMS, which cannot tell delivery
+    command, changed = command_ack(vessel=vessel_a, uid=command.uid, status="acknowledged")
+    assert changed and command.status == Status.ACKNOWLEDGED
+    assert events(command)[-2:] == [("queued", "sent"), ("sent", "acknowledged")]
 
 
 @pytest.mark.parametrize("status", ["sent", "cancelled", "DONE", "", None, 3])

@@ -242,3 +242,38 @@ def test_compact_fixes_and_their_channel_table(tmp_path):
         ("humidity_pct", 0.1),
         ("depth_m", 0.01),
     ]
+
+
+def test_the_sbd_modem_is_off_unless_a_port_is_given(tmp_path):
+    sbd = load_config(write(tmp_path, GOOD)).sbd
+    assert sbd.port == ""
+    assert (sbd.baudrate, sbd.fallback_after_s, sbd.period_s, sbd.mailbox_check) == (
+        19200, 300.0, 900.0, True,
+    )  # fmt: skip
+
+
+def test_the_sbd_table(tmp_path):
+    text = GOOD + (
+        '\n[sbd]\nport = "/dev/ttyUSB2"\nbaudrate = 9600\nfallback_after_s = 60\n'
+        "period_s = 1800\nmailbox_check = false\n"
+    )
+    sbd = load_config(write(tmp_path, text)).sbd
+    assert (sbd.port, sbd.baudrate, sbd.fallback_after_s, sbd.period_s, sbd.mailbox_check) == (
+        "/dev/ttyUSB2", 9600, 60.0, 1800.0, False,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("table", "message"),
+    [
+        ('port = "/dev/ttyUSB2"\nperiod_s = 0\n', r"\[sbd\] baudrate and period_s must be"),
+        ('port = "/dev/ttyUSB2"\nbaudrate = -1\n', r"\[sbd\] baudrate and period_s must be"),
+        ('port = "/dev/ttyUSB2"\nfallback_after_s = -5\n', "fallback_after_s cannot be negative"),
+        ('port = "/dev/ttyUSB2"\nmailbox_check = "yes"\n', r"\[sbd\] mailbox_check: expected"),
+        ("port = 3\n", r"\[sbd\] port: expected a string"),
+        ('port = "/dev/ttyUSB2"\nperiod = 900\n', r"\[sbd\]: unknown key 'period'"),
+    ],
+)
+def test_bad_sbd_settings_say_what_is_wrong(tmp_path, table, message):
+    with pytest.raises(ConfigError, match=message):
+        load_config(write(tmp_path, GOOD + "\n[sbd]\n" + table))
