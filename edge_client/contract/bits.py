@@ -44,20 +44,27 @@ class BitWriter:
         """``value`` in exactly ``width`` bits (0 <= value < 2**width)."""
         if value < 0 or value >> width:
             raise ValueError(f"{value} does not fit in {width} bits")
+        self._put(value, width)
+
+    def _put(self, value: int, width: int) -> None:
         acc, n = (self._acc << width) | value, self._n + width
         while n >= 8:
             n -= 8
             self._out.append((acc >> n) & 0xFF)
         self._acc, self._n = acc & ((1 << n) - 1), n
 
+    # The two codes call _put directly: their width fits the value by construction, and an
+    # encode is mostly these calls (bench.compact).
     def exp_golomb(self, value: int, k: int) -> None:
         """A non-negative ``value`` as an order-``k`` Exp-Golomb code."""
+        if value < 0:
+            raise ValueError(f"{value} is negative: not an Exp-Golomb value")
         v = value + (1 << k)
-        width = v.bit_length()
-        self.write(v, 2 * width - k - 1)  # width - k - 1 leading zeros, then v
+        self._put(v, 2 * v.bit_length() - k - 1)  # bit_length - k - 1 leading zeros, then v
 
     def signed(self, value: int, k: int) -> None:
-        self.exp_golomb(zigzag(value), k)
+        v = ((value << 1) if value >= 0 else (-value << 1) - 1) + (1 << k)  # zigzag, then k
+        self._put(v, 2 * v.bit_length() - k - 1)
 
     @property
     def bit_length(self) -> int:
@@ -109,15 +116,46 @@ class BitReader:
     def exp_golomb(self, k: int) -> int:
         if self._have <= MAX_PREFIX:
             self._fill(MAX_PREFIX + 1)
-        zeros = self._have - self._buf.bit_length()
+        buf = self._buf
+        zeros = self._have - buf.bit_length()
         if zeros > MAX_PREFIX:
             raise BitsError("a number longer than any this format writes")
-        if not self._buf:
+        if not buf:
             raise BitsError("the payload ends in the middle of a field")
-        return self.read(2 * zeros + 1 + k) - (1 << k)
+        # read(), inlined: a decode is mostly this call.
+        width = 2 * zeros + 1 + k
+        if width > self._remaining:
+            raise BitsError("the payload ends in the middle of a field")
+        if self._have < width:
+            self._fill(width)
+            buf = self._buf
+        have = self._have - width
+        self._buf = buf & ((1 << have) - 1)
+        self._have = have
+        self._remaining -= width
+        return (buf >> have) - (1 << k)
 
     def signed(self, k: int) -> int:
-        z = self.exp_golomb(k)
+        # exp_golomb(), inlined: most of a fix is signed deltas (bench.compact, decode).
+        if self._have <= MAX_PREFIX:
+            self._fill(MAX_PREFIX + 1)
+        buf = self._buf
+        zeros = self._have - buf.bit_length()
+        if zeros > MAX_PREFIX:
+            raise BitsError("a number longer than any this format writes")
+        if not buf:
+            raise BitsError("the payload ends in the middle of a field")
+        width = 2 * zeros + 1 + k
+        if width > self._remaining:
+            raise BitsError("the payload ends in the middle of a field")
+        if self._have < width:
+            self._fill(width)
+            buf = self._buf
+        have = self._have - width
+        self._buf = buf & ((1 << have) - 1)
+        self._have = have
+        self._remaining -= width
+        z = (buf >> have) - (1 << k)
         return (z >> 1) if not z & 1 else -((z + 1) >> 1)
 
     @property

@@ -74,6 +74,7 @@ LAT_MAX, LON_MAX = (1 << LAT_BITS) - 1, (1 << LON_BITS) - 1
 LAT_SCALE, LON_SCALE = LAT_MAX / 180, LON_MAX / 360
 HEADING_BITS = 9
 SPEED_STEP, BATTERY_STEP = 0.1, 0.01
+SPEED_DIVISOR, BATTERY_DIVISOR = 10, 100  # 1 / the steps, for exact decimals (_fix)
 MAX_TIME = (1 << 32) - 1
 # A reading is at most this many of its steps from zero: the longest code a reader takes
 # (bits.MAX_PREFIX) holds it, so whatever encodes also decodes.
@@ -230,6 +231,11 @@ def _number(i: int, fix: Mapping[str, Any], name: str, required: bool = False) -
             raise CompactError(f"fix {i}: {name} is required")
         return None
     low, high = RANGES[name]
+    kind = type(value)
+    # A plain float or int in range (NaN fails the comparison, the ranges are finite): the
+    # everyday case, checked in one step; anything else the long way.
+    if (kind is float or kind is int) and low <= value <= high:
+        return float(value)
     ok = isinstance(value, int | float) and not isinstance(value, bool)
     if not ok or not math.isfinite(value) or not low <= value <= high:
         raise CompactError(f"fix {i}: {name} must be a number from {low} to {high}")
@@ -247,20 +253,26 @@ def _readings(
         return None
     if not isinstance(readings, Mapping) or len(readings) > MAX_READINGS:
         raise CompactError(f"fix {i}: readings must be an object of at most {MAX_READINGS}")
-    unknown = sorted(str(k) for k in readings if k not in index)
-    if unknown and not drop_unknown:
-        raise CompactError(f"fix {i}: readings not in the channel table: {', '.join(unknown)}")
     out = {}
+    unknown = []
     for name, value in readings.items():
-        if name not in index:
+        at = index.get(name)
+        if at is None:
+            unknown.append(str(name))
             continue
-        ok = isinstance(value, int | float) and not isinstance(value, bool)
-        if not ok or not math.isfinite(value):
-            raise CompactError(f"fix {i}: reading {name} must be a number")
-        steps = value / channels[index[name]].step
+        kind = type(value)
+        # A plain finite float or an int, the everyday case, skips the long checks.
+        if not (kind is int or (kind is float and math.isfinite(value))):
+            ok = isinstance(value, int | float) and not isinstance(value, bool)
+            if not ok or not math.isfinite(value):
+                raise CompactError(f"fix {i}: reading {name} must be a number")
+        steps = value / channels[at].step
         if not abs(steps) < MAX_READING_STEPS:  # also inf: 1e308 / 0.01
             raise CompactError(f"fix {i}: reading {name} is too large for its step")
-        out[index[name]] = round(steps)
+        out[at] = round(steps)
+    if unknown and not drop_unknown:
+        unknown.sort()
+        raise CompactError(f"fix {i}: readings not in the channel table: {', '.join(unknown)}")
     return out or None
 
 
@@ -268,14 +280,6 @@ def _eg_bits(value: int, k: int) -> int:
     """Bits of ``value`` (signed, zigzagged) as an order-k Exp-Golomb code."""
     z = (value << 1) if value >= 0 else (-value << 1) - 1
     return 2 * (z + (1 << k)).bit_length() - k - 1
-
-
-def _predict(step: int, dt_now: int, dt_before: int) -> int:
-    """Where a steady course puts the next position: the last step, scaled to this interval.
-    Integer arithmetic: the boat and the server must get the same number."""
-    if dt_before <= 0:
-        return 0
-    return (2 * step * dt_now + dt_before) // (2 * dt_before)
 
 
 class _Stream:
@@ -290,28 +294,37 @@ class _Stream:
         self.step_lat = self.step_lon = 0
 
     def expected(self, t: int) -> tuple[int, int]:
-        assert self.prev is not None
-        dt_now = t - self.prev.t
+        """Where a steady course puts the fix at ``t``: the last step, scaled to this interval
+        and rounded half up. Integer arithmetic: the boat and the server must get the same
+        number."""
+        prev = self.prev
+        assert prev is not None
+        before = self.interval
+        if before <= 0:
+            return prev.lat, prev.lon
+        dt2, half = 2 * (t - prev.t), 2 * before
         return (
-            self.prev.lat + _predict(self.step_lat, dt_now, self.interval),
-            self.prev.lon + _predict(self.step_lon, dt_now, self.interval),
+            prev.lat + (self.step_lat * dt2 + before) // half,
+            prev.lon + (self.step_lon * dt2 + before) // half,
         )
 
-    def moved(self, q: _Quantised) -> None:
-        if self.prev is not None:
-            self.interval = q.t - self.prev.t
-            self.step_lat, self.step_lon = q.lat - self.prev.lat, q.lon - self.prev.lon
+    def moved(self, q: _Quantised, shape: tuple[bool, ...]) -> None:
+        """``q`` is now the fix before; ``shape`` is ``_shape(q)``, which the caller has."""
+        prev = self.prev
+        if prev is not None:
+            self.interval = q.t - prev.t
+            self.step_lat, self.step_lon = q.lat - prev.lat, q.lon - prev.lon
         self.prev = q
-        self.shape = _shape(q)
+        self.shape = shape
 
     # writing
 
     def write_all(self, w: BitWriter, fixes: list[_Quantised]) -> None:
         for q in fixes:
-            self.write(w, q)
-            self.moved(q)
+            self.moved(q, self.write(w, q))
 
-    def write(self, w: BitWriter, q: _Quantised) -> None:
+    def write(self, w: BitWriter, q: _Quantised) -> tuple[bool, ...]:
+        """Write ``q``; its shape."""
         prev = self.prev
         dt_now = q.t - prev.t if prev else 0
         exp_lat, exp_lon = self.expected(q.t) if prev else (0, 0)
@@ -319,12 +332,11 @@ class _Stream:
             _eg_bits(q.lat - exp_lat, K_POSITION) + _eg_bits(q.lon - exp_lon, K_POSITION)
             < LAT_BITS + LON_BITS
         )
-        w.write(0 if relative else 1, 1)
         shape = _shape(q)
-        if shape == self.shape:
-            w.write(1, 1)
-        else:
-            w.write(0, 1)
+        # Two flags in one write: absolute position?, the shape of the fix before?
+        same = shape == self.shape
+        w.write((0 if relative else 2) | same, 2)
+        if not same:
             w.write(sum(bit << (3 - i) for i, bit in enumerate(shape)), 4)
         w.signed(dt_now - self.interval if prev else 0, K_TIME)
         if relative:
@@ -345,6 +357,7 @@ class _Stream:
             _write_value(w, q.battery, before, K_BATTERY, K_BATTERY_FIRST)
         if q.readings is not None:
             self.write_readings(w, q.readings, prev.readings if prev else None)
+        return shape
 
     def write_readings(
         self, w: BitWriter, readings: dict[int, int], before: dict[int, int] | None
@@ -367,15 +380,19 @@ class _Stream:
 
     def read(self, r: BitReader, base: int, readings_allowed: bool) -> _Quantised:
         prev = self.prev
-        absolute = r.read(1)
-        if prev is None and not absolute:
+        flags = r.read(2)  # absolute position?, the shape of the fix before?
+        if prev is None and not flags & 2:
             raise CompactError("the first fix of a payload must have an absolute position")
-        shape = self.shape if r.read(1) else tuple(bool(r.read(1)) for _ in range(4))
+        if flags & 1:
+            shape = self.shape
+        else:
+            bits = r.read(4)
+            shape = (bool(bits & 8), bool(bits & 4), bool(bits & 2), bool(bits & 1))
         change = r.signed(K_TIME)
         t = prev.t + self.interval + change if prev else base + change
         if not 0 <= t <= MAX_TIME or (prev is None and change):
             raise CompactError("a fix's time is out of range")
-        if absolute:
+        if flags & 2:
             lat, lon = r.read(LAT_BITS), r.read(LON_BITS)
         else:
             exp_lat, exp_lon = self.expected(t)
@@ -403,7 +420,9 @@ class _Stream:
             if not readings_allowed:
                 raise CompactError("a fix has readings the header does not announce")
             readings = self.read_readings(r, prev.readings if prev else None)
-        return _Quantised(t, lat, lon, heading, speed, battery, readings)
+        q = _Quantised(t, lat, lon, heading, speed, battery, readings)
+        self.moved(q, shape)
+        return q
 
     def read_readings(self, r: BitReader, before: dict[int, int] | None) -> dict[int, int]:
         if r.read(1):
@@ -471,35 +490,49 @@ def decode(payload: bytes, channels: Sequence[Channel] = ()) -> list[dict[str, A
         stream = _Stream(channels)
         fixes = []
         for _ in range(count):
-            q = stream.read(r, base, readings_allowed)
-            stream.moved(q)
-            fixes.append(q)
+            fixes.append(stream.read(r, base, readings_allowed))
         if r.remaining >= 8 or r.read(r.remaining):
             raise CompactError("bytes after the last fix")
     except BitsError as exc:
         raise CompactError(str(exc)) from None
     days: dict[int, str] = {}
-    return [_fix(q, channels, days) for q in fixes]
+    readers = [(c.name, _divisor(c.step), c.step) for c in channels]
+    return [_fix(q, readers, days) for q in fixes]
 
 
-def _fix(q: _Quantised, channels: Sequence[Channel], days: dict[int, str]) -> dict[str, Any]:
+def _divisor(step: float) -> int | None:
+    """``n`` when ``step`` is ``1/n`` (0.1, 0.01…): a value is then ``steps / n``, which is the
+    double nearest its decimal (``181 / 10`` is 18.1; ``181 * 0.1`` is 18.100000000000001)."""
+    n = round(1 / step)
+    return n if n >= 1 and abs(n * step - 1) < 1e-12 else None
+
+
+# Per channel: its name, and how its steps become a value (_divisor, else the step).
+_Readers = list[tuple[str, int | None, float]]
+
+
+def _fix(q: _Quantised, readers: _Readers, days: dict[int, str]) -> dict[str, Any]:
     day, second = divmod(q.t, 86400)
     if day not in days:  # a batch mostly shares a day or two: format each once
         days[day] = dt.datetime.fromtimestamp(day * 86400, dt.UTC).strftime("%Y-%m-%dT")
     hours, second = divmod(second, 3600)
+    # round(x * 1e7) / 1e7, not round(x, 7): the same tidy number (to 1e-7°, a hundredth of a
+    # step), and round() with digits formats a decimal string: most of a decode's time.
     fix: dict[str, Any] = {
         "time": f"{days[day]}{hours:02d}:{second // 60:02d}:{second % 60:02d}Z",
-        "lat": round(q.lat / LAT_SCALE - 90, 7),
-        "lon": round(q.lon / LON_SCALE - 180, 7),
+        "lat": round((q.lat / LAT_SCALE - 90) * 1e7) / 1e7,
+        "lon": round((q.lon / LON_SCALE - 180) * 1e7) / 1e7,
     }
     if q.heading is not None:
         fix["heading_deg"] = float(q.heading)
     if q.speed is not None:
-        fix["speed_mps"] = round(q.speed * SPEED_STEP, 1)
+        fix["speed_mps"] = q.speed / SPEED_DIVISOR
     if q.battery is not None:
-        fix["battery_v"] = round(q.battery * BATTERY_STEP, 2)
+        fix["battery_v"] = q.battery / BATTERY_DIVISOR
     if q.readings:
-        fix["readings"] = {
-            channels[i].name: round(v * channels[i].step, 9) for i, v in sorted(q.readings.items())
-        }
+        readings = {}
+        for i, v in sorted(q.readings.items()):
+            name, n, step = readers[i]
+            readings[name] = v / n if n else round(v * step, 9)
+        fix["readings"] = readings
     return fix
