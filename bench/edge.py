@@ -130,7 +130,7 @@ class BoatApi(BaseHTTPRequestHandler):
             self.server.stats["fixes"] += len(fixes)
             answer = {"accepted": len(fixes), "duplicates": 0, "rejected": []}
             held = self.headers.get(EXCHANGE_HEADER)  # one exchange per period (docs/api.md)
-            if held == self.ETAG:
+            if held == self.ETAG and self.headers.get("Prefer") == "return=minimal":
                 self._send(204, None)  # all stored, the list held is current: nothing to say
                 return
             if held is not None:

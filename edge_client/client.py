@@ -312,7 +312,14 @@ class EdgeClient:
 
     def _send_fixes(self, items: list) -> bool:
         """POST one batch; True if every fix in it was settled (so the caller may go on)."""
-        headers = {exchange.HEADER: exchange.held_etag(self.etag)} if self.exchange else None
+        headers = (
+            {
+                exchange.HEADER: exchange.held_etag(self.etag),
+                exchange.PREFER_HEADER: exchange.PREFER,
+            }
+            if self.exchange
+            else None
+        )
         try:
             sent, response = post_fixes(self.transport, items, self.config.telemetry, headers)
         except TransportError as exc:

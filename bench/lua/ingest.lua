@@ -3,7 +3,8 @@
 -- Fix k of this thread is at first_unix_second + thread_offset + k/100 s (ISO 8601, +00:00).
 -- Several keys (comma-separated): wrk thread i posts with key i (mod their number), so with one
 -- connection per thread (-t N -c N) each connection is its own boat. ETags (one per key): sent
--- in X-Commands-ETag, as the edge client does (one exchange per period, docs/api.md).
+-- in X-Commands-ETag with Prefer: return=minimal, as the edge client does (one exchange per
+-- period, docs/api.md).
 local dir = debug.getinfo(1, "S").source:match("^@(.*/)") or "./"
 dofile(dir .. "common.lua")
 
@@ -19,6 +20,7 @@ function init(args)
       local etags = {}
       for e in string.gmatch(args[4], "[^,]+") do etags[#etags + 1] = e end
       wrk.headers["X-Commands-ETag"] = etags[(thread_index or 0) % #etags + 1]
+      wrk.headers["Prefer"] = "return=minimal"  -- a settled exchange is then a bare 204
    end
    sent = 0
    -- a million seconds per thread: no two threads ever share a timestamp

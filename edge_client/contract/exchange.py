@@ -8,10 +8,12 @@ that ETag differs from the one sent. A post without the header is answered as it
 so an older boat sees no change; an answer without :data:`ETAG_KEY` comes from an older server,
 and the boat keeps polling.
 
-With the header, the commonest answer says nothing: every fix stored (or already there), none
-rejected, and the list the boat holds still current. That answer is :data:`SETTLED` (204 No
-Content): no body and no content headers, about 120 bytes fewer on every exchange of a boat
-that reports every period. Pure: both sides import it.
+The commonest answer says nothing: every fix stored (or already there), none rejected, and
+the list the boat holds still current. A boat that also sends ``Prefer: return=minimal``
+(:data:`PREFER`, RFC 7240 §4.2) gets that answer as :data:`SETTLED` (204 No Content): no body
+and no content headers, about 120 bytes fewer on every exchange of a boat that reports every
+period. Opt-in, because a boat that sends only the ETag header (an edge client from before
+the 204) reads every answer as JSON. Pure: both sides import it.
 """
 
 from __future__ import annotations
@@ -27,8 +29,12 @@ META_KEY = "HTTP_X_COMMANDS_ETAG"
 NONE_HELD = '""'
 # A held ETag longer than this is no ETag of ours ('"c<vessel>.<version>"'): taken as none held.
 MAX_HELD = 64
-# The answer to a batch taken whole while the boat's list is current: nothing to say.
+# The answer to a batch taken whole while the boat's list is current, for a boat that asks
+# for minimal answers: nothing to say.
 SETTLED = 204
+PREFER_HEADER = "Prefer"
+PREFER_META_KEY = "HTTP_PREFER"
+PREFER = "return=minimal"
 ETAG_KEY = "commands_etag"
 COMMANDS_KEY = "commands"
 
@@ -36,6 +42,18 @@ COMMANDS_KEY = "commands"
 def held_etag(value: str | None) -> str:
     """What the boat sends in :data:`HEADER`: the ETag it holds, or :data:`NONE_HELD`."""
     return value or NONE_HELD
+
+
+def wants_minimal(prefer: str | None) -> bool:
+    """Whether a ``Prefer`` header's value asks for ``return=minimal`` (preferences are
+    comma-separated, each maybe with parameters after ``;``, names case-insensitive)."""
+    if not prefer:
+        return False
+    for preference in prefer.split(","):
+        token = preference.split(";", 1)[0].strip().lower().replace(" ", "")
+        if token == PREFER:
+            return True
+    return False
 
 
 def settled(answer: dict[str, Any]) -> bool:

@@ -121,13 +121,20 @@ class TelemetryView(BoatView):
                 OpenApiParameter.HEADER,
                 description='the command poll\'s ETag the boat holds (`""`: none yet): the '
                 "answer then carries the command list when it changed (docs/api.md)",
-            )
+            ),
+            OpenApiParameter(
+                exchange.PREFER_HEADER,
+                str,
+                OpenApiParameter.HEADER,
+                description=f"`{exchange.PREFER}` with {exchange.HEADER}: a batch taken whole "
+                "while the boat's list is current is answered 204, with nothing to read",
+            ),
         ],
         responses={
             200: _IngestResult,
             204: OpenApiResponse(
-                description=f"with {exchange.HEADER}: every fix stored or already there, and "
-                "the command list the boat holds is current (nothing to say)"
+                description=f"with {exchange.HEADER} and `Prefer: {exchange.PREFER}`: every "
+                "fix stored or already there, and the command list the boat holds is current"
             ),
         },
         tags=["boat"],
@@ -154,7 +161,8 @@ class TelemetryView(BoatView):
         held = request.META.get(exchange.META_KEY)
         if held is not None and self.commands_exchange is not None:
             answer.update(self.commands_exchange(vessel, held))
-            if exchange.settled(answer):
+            prefer = request.META.get(exchange.PREFER_META_KEY)
+            if exchange.settled(answer) and exchange.wants_minimal(prefer):
                 return None
         return answer
 

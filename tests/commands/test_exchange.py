@@ -25,6 +25,7 @@ from vessels.auth import key_forget, key_is_recent
 from vessels.models import Vessel
 
 HEADER = exchange.META_KEY  # X-Commands-ETag, as the test client takes it
+MINIMAL = {exchange.PREFER_META_KEY: exchange.PREFER}  # Prefer: return=minimal
 EXCHANGE_KEYS = {exchange.ETAG_KEY, exchange.COMMANDS_KEY}
 _seconds = iter(range(10**6))
 
@@ -84,10 +85,38 @@ def test_a_batch_taken_whole_with_the_list_unchanged_is_answered_with_nothing(
 ) -> None:
     """204 No Content: no body, no content headers (exchange.SETTLED); the fix is stored."""
     etag = boat_a.get(COMMANDS)["ETag"]
-    response = post(boat_a, make_fix, status=204, **{HEADER: etag})
+    response = post(boat_a, make_fix, status=204, **{HEADER: etag}, **MINIMAL)
     assert response.content == b""
     assert set(response.headers) == set()  # the WSGI server adds its Date and Connection
     assert vessel_fixes(command_a.vessel) == 1
+
+
+@pytest.mark.parametrize("prefer", [None, "return=representation", "respond-async"])
+def test_without_prefer_minimal_the_answer_stays_json(
+    boat_a: APIClient, command_a: Command, make_fix: MakeFix, prefer: str | None
+) -> None:
+    """An edge client from before the 204 sends the ETag alone and reads JSON: it gets JSON."""
+    etag = boat_a.get(COMMANDS)["ETag"]
+    extra = {exchange.PREFER_META_KEY: prefer} if prefer else {}
+    answer = post(boat_a, make_fix, **{HEADER: etag}, **extra).json()
+    assert answer == {"accepted": 1, "duplicates": 0, "rejected": [], "commands_etag": etag}
+
+
+@pytest.mark.parametrize(
+    ("value", "minimal"),
+    [
+        ("return=minimal", True),
+        ("respond-async, return=minimal", True),
+        ("Return=Minimal; foo=bar", True),
+        ("return = minimal", True),
+        ("return=representation", False),
+        ("", False),
+        (None, False),
+        ("return=minimalist", False),
+    ],
+)
+def test_prefer_is_read_as_rfc_7240_lists_it(value: str | None, minimal: bool) -> None:
+    assert exchange.wants_minimal(value) is minimal
 
 
 def test_a_rejected_fix_is_said_even_when_the_list_is_unchanged(
@@ -96,7 +125,7 @@ def test_a_rejected_fix_is_said_even_when_the_list_is_unchanged(
     etag = boat_a.get(COMMANDS)["ETag"]
     body = json.dumps({"fixes": [make_fix(time="2026-11-23T10:00:00Z"), {"lat": 91}]})
     response = boat_a.generic(
-        "POST", TELEMETRY, body, content_type="application/json", **{HEADER: etag}
+        "POST", TELEMETRY, body, content_type="application/json", **{HEADER: etag}, **MINIMAL
     )
     assert response.status_code == 200
     answer = response.json()
@@ -111,7 +140,7 @@ def test_duplicates_alone_are_settled_too(
     body = json.dumps({"fixes": [make_fix(time="2026-11-23T10:00:00Z")]})
     for _ in range(2):  # stored, then a duplicate: both settled
         response = boat_a.generic(
-            "POST", TELEMETRY, body, content_type="application/json", **{HEADER: etag}
+            "POST", TELEMETRY, body, content_type="application/json", **{HEADER: etag}, **MINIMAL
         )
         assert response.status_code == 204
 
@@ -129,7 +158,7 @@ def test_a_command_queued_since_comes_in_the_next_answer_even_from_a_recent_key(
     answer = post(boat_a, make_fix, **{HEADER: first["commands_etag"]}).json()
     assert [c["uid"] for c in answer["commands"]] == [str(command.uid)]
     assert answer["commands_etag"] != first["commands_etag"]
-    post(boat_a, make_fix, status=204, **{HEADER: answer["commands_etag"]})  # nothing more
+    post(boat_a, make_fix, status=204, **{HEADER: answer["commands_etag"]}, **MINIMAL)
     command.refresh_from_db()
     assert command.status == Status.SENT
 
@@ -179,7 +208,7 @@ def test_a_weakened_or_listed_tag_matches_as_in_the_poll(
     boat_a: APIClient, command_a: Command, make_fix: MakeFix, form: str
 ) -> None:
     etag = boat_a.get(COMMANDS)["ETag"]
-    post(boat_a, make_fix, status=204, **{HEADER: form.format(tag=etag)})
+    post(boat_a, make_fix, status=204, **{HEADER: form.format(tag=etag)}, **MINIMAL)
 
 
 def test_the_short_way_and_drfs_whole_way_answer_alike(
@@ -251,7 +280,7 @@ def test_an_exchange_with_nothing_new_costs_one_select_more(
     recent lookup's, its version up to a minute old. The poll it replaces cost a request."""
     etag = post(boat_a, make_fix, **{HEADER: exchange.NONE_HELD}).json()["commands_etag"]
     with CaptureQueriesContext(connection) as queries:
-        post(boat_a, make_fix, status=204, **{HEADER: etag})
+        post(boat_a, make_fix, status=204, **{HEADER: etag}, **MINIMAL)
     kinds = [q["sql"].split(None, 1)[0].upper() for q in queries]
     expected = [*SINGLE_POST_STATEMENTS[connection.vendor], "SELECT"]
     assert kinds == expected, [q["sql"][:80] for q in queries]

@@ -238,7 +238,8 @@ HOLD = {"uid": "c1", "kind": "hold", "params": {}, "created_at": "2026-11-23T10:
 def exchanging(method, path, body, headers):
     """A server that answers X-Commands-ETag: the list (one hold) until the boat holds "v2",
     then 204 No Content (every fix taken, the list current), as the real one does."""
-    if path.endswith("/telemetry/") and headers.get("X-Commands-ETag") == '"v2"':
+    minimal = headers.get("Prefer") == "return=minimal"
+    if path.endswith("/telemetry/") and headers.get("X-Commands-ETag") == '"v2"' and minimal:
         return 204, {}, None
     if path.endswith("/telemetry/") and headers.get("X-Commands-ETag") is not None:
         answer = {"accepted": len(body["fixes"]), "duplicates": 0, "rejected": []}

@@ -18,7 +18,7 @@ import pytest
 
 from commands.models import Command
 from commands.services import command_enqueue
-from edge_client.config import MavlinkConfig
+from edge_client.config import MavlinkConfig, OutboxConfig
 from edge_client.contract.geo import distance_m
 from edge_client.mavlink_link import MavlinkLink
 from edge_client.mission import build_mission
@@ -251,8 +251,9 @@ def test_after_an_outage_every_fix_is_on_the_server_exactly_once(live_server, bo
     up_at = time.time()
     proxy.up()
     wait_until(lambda: outbox_counts(rig.outbox)["queued_fix"] == 0, 30, "the backlog to drain")
-    drained_at = time.time()
+    drained_at = time.monotonic()
     assert stop(rig.edge) == 0
+    stopped_at = time.monotonic()
     proxy.down()
     counts = outbox_counts(rig.outbox)
     times = sorted(t.timestamp() for t in Fix.objects.filter(vessel=vessel)
@@ -264,7 +265,12 @@ def test_after_an_outage_every_fix_is_on_the_server_exactly_once(live_server, bo
     assert counts.get("evicted_fixes", 0) == 0
     assert len(times) + counts["queued_fix"] == counts["recorded_fixes"]
     left = queued_fix_times(rig.outbox)
-    assert all(t >= drained_at - float(PERIOD) for t in left)
+    # Left: the fixes sampled between the drain and the stop, and those sampled before the
+    # drain but not yet committed when this test saw the outbox empty (group commits: fewer
+    # than commit_every, from its own connection it cannot see them). Their times cannot tell
+    # the two apart on a loaded machine, so count them.
+    most = (stopped_at - drained_at) / float(PERIOD) + OutboxConfig().commit_every + 1
+    assert len(left) <= most
     assert not {round(t, 3) for t in left} & {round(t, 3) for t in times}
     # ... and the outage left no hole in the track.
     during = [t for t in times if down_at <= t <= up_at]
