@@ -7,13 +7,14 @@ import datetime as dt
 
 from alerts.notify.registry import sms_sender_from_settings
 from commands.models import Command
-from fleet.routing import Refused, Route, Sender
+from fleet.routing import Refused, Route, Sender, Sent
 from sbd.errors import SbdError
 from sbd.models import Status as SbdStatus
 from sbd.rockblock import credits
 from sbd.services import sbd_send_command
 from sbd.transport import configured_transport
 from sms.errors import SmsRouteError
+from sms.gsm7 import on_air
 from sms.models import SendStatus
 from sms.services import sms_send_command
 
@@ -24,7 +25,7 @@ def sbd_sender() -> Sender | None:
     if transport is None:
         return None
 
-    def send(command: Command, now: dt.datetime) -> str:
+    def send(command: Command, now: dt.datetime) -> Sent:
         try:
             message = sbd_send_command(command, transport=transport, now=now)
         except SbdError as exc:
@@ -34,11 +35,13 @@ def sbd_sender() -> Sender | None:
         if message.status == SbdStatus.FAILED:
             raise Refused(f"RockBLOCK refused it: {message.detail}")
         if message.status == SbdStatus.QUEUED:
-            # A temporary failure: sbd_send_queued tries again on the next pass.
-            return (
-                f"queued for Iridium SBD ({size}); RockBLOCK did not take it yet: {message.detail}"
+            # A temporary failure: sbd_send_queued tries again, backing off, while the
+            # command stays queued (its history says if it gives up).
+            return Sent(
+                f"queued for Iridium SBD ({size}); RockBLOCK did not take it yet: {message.detail}",
+                n,
             )
-        return f"sent by Iridium SBD ({size}), RockBLOCK message {message.provider_ref}"
+        return Sent(f"sent by Iridium SBD ({size}), RockBLOCK message {message.provider_ref}", n)
 
     return send
 
@@ -46,23 +49,27 @@ def sbd_sender() -> Sender | None:
 def sms_sender() -> Sender | None:
     """The shore's SMS modem or gateway, the one alerts text through (ALERTS_SMS_MODEM_URL or
     ALERTS_SMS_GATEWAY_URL). A modem is opened for one text and closed after it: run_alerts
-    may want the same port, and it waits its turn on the port's lock."""
+    may want the same port. While run_alerts holds it the open fails at once (the port's lock
+    does not wait): a failure for now, tried again next pass."""
     if sms_sender_from_settings() is None:
         return None
 
-    def send(command: Command, now: dt.datetime) -> str:
+    def send(command: Command, now: dt.datetime) -> Sent:
         sender = sms_sender_from_settings()
         if sender is None:  # the settings changed under a running loop
             raise Refused("the shore has no SMS sender any more")
         try:
             message = sms_send_command(command, sender=sender, now=now)
         except SmsRouteError as exc:
-            raise Refused(str(exc)) from None
+            raise Refused(str(exc)) from None  # it cannot be said, or the vessel has no phone
         finally:
             sender.close()
         if message.status != SendStatus.SENT:
-            raise Refused(f"the SMS to {message.number} failed: {message.status_detail}")
-        return f"sent by SMS to {message.number}: {message.text}"
+            # The gateway or the modem failed (down, busy, refused): worth another pass.
+            raise Refused(
+                f"the SMS to {message.number} failed: {message.status_detail}", temporary=True
+            )
+        return Sent(f"sent by SMS to {message.number}: {message.text}", on_air(message.text)[1])
 
     return send
 

@@ -18,8 +18,10 @@ import datetime as dt
 import logging
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from enum import Enum
 
-from django.db.models import Max, Q
+from django.conf import settings
+from django.db.models import Count, Max, Q
 from django.utils import timezone
 
 from commands.lifecycle import Status
@@ -30,52 +32,91 @@ from links.routing import PREFERENCE, Decision, Route, VesselLinks, decide
 from vessels.models import OVERDUE_PERIODS, Vessel, VesselKind
 
 logger = logging.getLogger(__name__)
-BATCH = 200
+BATCH = 500
+# A command whose links fail for now is tried this many passes, then marked none.
+RELAY_TRIES = 3
+RETRY_MARK = "trying again next pass"
 # What a route's budget is counted in, per vessel: today's LinkDay credits (SMS segments, SBD
 # credits); the budgets are the vessel's own fields (the budget alert reads the same).
 BUDGET_FIELD = {Route.SMS: "sms_daily_budget", Route.SBD: "sbd_daily_credit_budget"}
 
 
 class Refused(Exception):
-    """This link cannot carry this command; the message says why (for its history)."""
+    """This link did not carry this command; the message says why (for its history).
+    ``temporary``: it may next time (a gateway down, the modem busy with an alert's text)."""
+
+    def __init__(self, message: str, *, temporary: bool = False) -> None:
+        super().__init__(message)
+        self.temporary = temporary
 
 
-# A link's way out: sends one command, returns what became of it for the command's history,
-# raises Refused when it cannot carry it.
-Sender = Callable[[Command, dt.datetime], str]
+@dataclass(frozen=True)
+class Sent:
+    """What a link did with a command: a line for its history, and what it cost in the
+    link's budget units (SMS segments, SBD credits)."""
+
+    note: str
+    cost: int = 1
+
+
+# A link's way out: sends one command, returns Sent, raises Refused when it did not carry it.
+Sender = Callable[[Command, dt.datetime], Sent]
 
 
 @dataclass
 class RoutingReport:
     relayed: list[tuple[str, Route]] = field(default_factory=list)
     impossible: list[str] = field(default_factory=list)
+    retrying: list[str] = field(default_factory=list)
 
 
-def _reachable(vessel: Vessel, senders: Mapping[Route, Sender]) -> frozenset[Route]:
+class _Outcome(Enum):
+    GONE = "gone"  # another pass has it, or it was cancelled, expired, polled meanwhile
+    IMPOSSIBLE = "impossible"  # no link could carry it: marked none
+    RETRY = "retry"  # a link failed for now: released for a later pass
+
+
+def _reachable(
+    vessel: Vessel, senders: Mapping[Route, Sender], sms_recent: int = 0
+) -> frozenset[Route]:
     routes = set()
     # Only a glider's bridge reads commands in SMS; an ArduPilot boat's modem is for data.
-    if Route.SMS in senders and vessel.sms_number and vessel.kind == VesselKind.WAVE_GLIDER:
+    # Not past the glider's rate limit either (the same setting: a text past it is logged
+    # there and not run), counted over the shore's texts to it in the window.
+    if (
+        Route.SMS in senders
+        and vessel.sms_number
+        and vessel.kind == VesselKind.WAVE_GLIDER
+        and sms_recent < settings.SMS_RATE_LIMIT
+    ):
         routes.add(Route.SMS)
     if Route.SBD in senders and vessel.imei:
         routes.add(Route.SBD)
     return frozenset(routes)
 
 
-def _pending(now: dt.datetime, limit: int) -> list[Command]:
-    reachable = Q(vessel__imei__isnull=False) | ~Q(vessel__sms_number="")
+def _pending(now: dt.datetime, limit: int, senders: Mapping[Route, Sender]) -> list[Command]:
+    """Queued commands of vessels one of ``senders`` can reach, urgent ones first: a vessel
+    no configured link reaches never fills the batch."""
+    reachable = Q(pk__in=[])
+    if Route.SBD in senders:
+        reachable |= Q(vessel__imei__isnull=False)
+    if Route.SMS in senders:
+        reachable |= Q(vessel__kind=VesselKind.WAVE_GLIDER) & ~Q(vessel__sms_number="")
     unexpired = Q(expires_at__isnull=True) | Q(expires_at__gt=now)
     return list(
         Command.objects.filter(reachable, unexpired, status=Status.QUEUED, relay="", reported=False)
         .filter(vessel__active=True)
         .select_related("vessel")
-        .order_by("created_at", "pk")[:limit]
+        .order_by("-urgent", "created_at", "pk")[:limit]
     )
 
 
 def _links_today(vessel_ids: Iterable[int], now: dt.datetime) -> dict[int, dict]:
-    """Per vessel: its newest HTTP contact (any day) and today's SMS and SBD spending."""
+    """Per vessel: its newest HTTP contact (any day), today's SMS and SBD spending, and the
+    commands texted to it within the SMS rate window."""
     ids = list(vessel_ids)
-    out: dict[int, dict] = {pk: {"last_http_at": None, "spent": {}} for pk in ids}
+    out: dict[int, dict] = {pk: {"last_http_at": None, "spent": {}, "sms_recent": 0} for pk in ids}
     heard = (
         LinkDay.objects.filter(vessel_id__in=ids, transport=Transport.HTTP)
         .values("vessel_id")
@@ -88,6 +129,14 @@ def _links_today(vessel_ids: Iterable[int], now: dt.datetime) -> dict[int, dict]
     ).values_list("vessel_id", "transport", "credits")
     for vessel_id, transport, spent in today:
         out[vessel_id]["spent"][Route(transport)] = spent
+    window = now - dt.timedelta(seconds=settings.SMS_RATE_WINDOW_S)
+    texted = (
+        Command.objects.filter(vessel_id__in=ids, relay=Relay.SMS, relayed_at__gt=window)
+        .values("vessel_id")
+        .annotate(n=Count("pk"))
+    )
+    for row in texted:
+        out[row["vessel_id"]]["sms_recent"] = row["n"]
     return out
 
 
@@ -105,53 +154,81 @@ def vessel_links(vessel: Vessel, known: Mapping, usable: frozenset[Route]) -> Ve
 def route_pending(
     *, senders: Mapping[Route, Sender], now: dt.datetime | None = None, limit: int = BATCH
 ) -> RoutingReport:
-    """One pass: every queued command that should go by another link goes, oldest first."""
+    """One pass: every queued command that should go by another link goes, urgent ones
+    first, then oldest first."""
     now = now or timezone.now()
     report = RoutingReport()
-    pending = _pending(now, limit)
+    if not senders:
+        return report
+    pending = _pending(now, limit, senders)
     if not pending:
         return report
     known = _links_today({c.vessel_id for c in pending}, now)
     for command in pending:
         vessel = command.vessel
-        links = vessel_links(vessel, known[vessel.pk], _reachable(vessel, senders))
-        decision = decide(links, urgent=command.urgent, now=now)
-        if decision.routes:
-            route = _relay(command, decision, senders, now)
-            if route is None:
-                report.impossible.append(str(command.uid))
-            else:
-                report.relayed.append((str(command.uid), route))
-                # Counted before the next command: a budget can run out within one pass.
-                spent = known[vessel.pk]["spent"]
-                spent[route] = spent.get(route, 0) + 1
+        state = known[vessel.pk]
+        usable = _reachable(vessel, senders, state["sms_recent"])
+        decision = decide(vessel_links(vessel, state, usable), urgent=command.urgent, now=now)
+        if not decision.routes:
+            continue
+        outcome = _relay(command, decision, senders, now)
+        if isinstance(outcome, tuple):
+            route, cost = outcome
+            report.relayed.append((str(command.uid), route))
+            # Counted before the next command: a budget can run out within one pass, and
+            # the glider's rate limit too.
+            state["spent"][route] = state["spent"].get(route, 0) + cost
+            if route is Route.SMS:
+                state["sms_recent"] += 1
+        elif outcome is _Outcome.IMPOSSIBLE:
+            report.impossible.append(str(command.uid))
+        elif outcome is _Outcome.RETRY:
+            report.retrying.append(str(command.uid))
     return report
 
 
 def _relay(
     command: Command, decision: Decision, senders: Mapping[Route, Sender], now: dt.datetime
-) -> Route | None:
-    """Try the decision's links in order; the one that took it, or None (marked ``none``)."""
-    was, reasons = "", []
+) -> tuple[Route, int] | _Outcome:
+    """Try the decision's links in order: (the one that took it, its cost), or what else
+    became of it. A link that failed for now (``Refused.temporary``) puts the command back
+    for a later pass, RELAY_TRIES times at most; then, or when no link can carry it at all,
+    it is marked ``none``."""
+    was, reasons, temporary = "", [], False
     for route in decision.routes:
         if not command_relay_claim(command=command, relay=route.value, was=was, now=now):
-            return None  # another pass has it
+            return _Outcome.GONE
         was = route.value
         try:
-            outcome = senders[route](command, now)
+            sent = senders[route](command, now)
         except Refused as exc:
             reasons.append(f"{route.value}: {exc}")
+            temporary = temporary or exc.temporary
             continue
-        command_note(
-            command=command, actor="shore", now=now, detail=f"{decision.reason}: {outcome}"
-        )
+        note = f"{decision.reason}: {sent.note}"
+        command_note(command=command, actor="shore", now=now, detail=note)
         logger.info("command %s relayed by %s (%s)", command.uid, route.value, decision.reason)
-        return route
+        return route, sent.cost
+    tries = _failed_tries(command) + 1
+    if temporary and tries < RELAY_TRIES:
+        if command_relay_claim(command=command, relay="", was=was, now=now):
+            detail = (
+                f"{decision.reason}, but not sent ({'; '.join(reasons)}): "
+                f"trying again next pass (try {tries} of {RELAY_TRIES})"
+            )
+            command_note(command=command, actor="shore", now=now, detail=detail)
+            logger.warning("command %s: %s", command.uid, detail)
+        return _Outcome.RETRY
     if command_relay_claim(command=command, relay=Relay.NONE, was=was, now=now):
         detail = f"{decision.reason}, but no link could carry it: " + "; ".join(reasons)
         command_note(command=command, actor="shore", now=now, detail=detail)
         logger.warning("command %s: %s", command.uid, detail)
-    return None
+    return _Outcome.IMPOSSIBLE
+
+
+def _failed_tries(command: Command) -> int:
+    """Passes that released ``command`` after a failure for now (their notes say so)."""
+    return command.events.filter(actor="shore", detail__contains=RETRY_MARK).count()
 
 
 ROUTE_NAMES = {Route.SMS: "SMS", Route.SBD: "Iridium SBD"}

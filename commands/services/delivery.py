@@ -7,6 +7,7 @@ import uuid
 from typing import Any
 
 from django.db import transaction
+from django.db.models import Q
 from django.utils import timezone
 
 from audit.services import audit_record
@@ -214,11 +215,16 @@ def command_deliver_legacy(*, vessel: Vessel, now: dt.datetime | None = None) ->
 def command_relay_claim(
     *, command: Command, relay: str, was: str = "", now: dt.datetime | None = None
 ) -> bool:
-    """Mark ``command`` as relayed by ``relay`` (a Relay) if it still stands at ``was``; False
-    when another router got there first. Claimed before the send, so two routers never send
-    one command twice (at most once: a crash after the claim leaves it to HTTP)."""
+    """Mark ``command`` as relayed by ``relay`` (a Relay) if it still stands at ``was`` and is
+    still queued and unexpired; False when another router got there first, or the command was
+    cancelled, expired or taken over HTTP meanwhile (a pass reads its list before it sends,
+    and a text takes seconds). Claimed before the send, so two routers never send one command
+    twice (at most once: a crash after the claim leaves it to HTTP)."""
     now = now or timezone.now()
-    claimed = Command.objects.filter(pk=command.pk, relay=was).update(relay=relay, relayed_at=now)
+    unexpired = Q(expires_at__isnull=True) | Q(expires_at__gt=now)
+    claimed = Command.objects.filter(
+        unexpired, pk=command.pk, relay=was, status=Status.QUEUED
+    ).update(relay=relay, relayed_at=now)
     if claimed:
         command.relay, command.relayed_at = relay, now
     return bool(claimed)

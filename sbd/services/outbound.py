@@ -15,7 +15,9 @@ from django.conf import settings
 from django.db import transaction
 from django.utils import timezone
 
+from commands.lifecycle import Status as CommandStatus
 from commands.models import Command
+from commands.services import command_note
 from edge_client.contract import compact_command
 from links.models import Transport
 from links.services import link_count
@@ -26,6 +28,7 @@ from sbd.transport import MtTransport, configured_transport
 
 logger = logging.getLogger(__name__)
 DETAIL_MAX = 200
+RETRY_BASE_S = 30
 
 
 def sbd_queue_command(*, command: Command, now: dt.datetime | None = None) -> SbdMessage:
@@ -50,9 +53,34 @@ def sbd_queue_command(*, command: Command, now: dt.datetime | None = None) -> Sb
     )
 
 
+def _command_moved_on(message: SbdMessage) -> str | None:
+    """Why ``message`` must not go any more: its command is no longer queued (cancelled,
+    expired, superseded, or the boat took it over HTTP), or None."""
+    if message.command_id is None:
+        return None
+    command = Command.objects.only("status").get(pk=message.command_id)
+    return None if command.status == CommandStatus.QUEUED else command.status
+
+
+def retry_due(message: SbdMessage, now: dt.datetime) -> bool:
+    """Whether a queued message's next try is due: at once, then RETRY_BASE_S, 2x, 4x… after
+    it was queued in all (30 s, 90 s, 210 s, 450 s): a provider that is down is not hammered
+    every pass, and SBD_MT_MAX_ATTEMPTS tries span minutes, not one minute."""
+    wait = RETRY_BASE_S * ((1 << message.attempts) - 1)
+    return now >= message.received_at + dt.timedelta(seconds=wait)
+
+
 def _send_one(message: SbdMessage, transport: MtTransport, now: dt.datetime) -> bool:
     """Try ``message`` once; True if the provider took it. The attempt is claimed with a
     conditional update, so two senders never hand the same try over twice."""
+    moved_on = _command_moved_on(message)
+    if moved_on is not None:
+        detail = f"not sent: the command is {moved_on} now"
+        SbdMessage.objects.filter(pk=message.pk, status=Status.QUEUED).update(
+            status=Status.FAILED, detail=detail
+        )
+        message.status, message.detail = Status.FAILED, detail
+        return False
     tries = message.attempts
     claimed = SbdMessage.objects.filter(pk=message.pk, status=Status.QUEUED, attempts=tries).update(
         attempts=tries + 1
@@ -70,6 +98,13 @@ def _send_one(message: SbdMessage, transport: MtTransport, now: dt.datetime) -> 
         SbdMessage.objects.filter(pk=message.pk).update(
             status=message.status, detail=message.detail
         )
+        if final and message.command_id is not None:
+            command_note(
+                command=Command.objects.get(pk=message.command_id),
+                actor="shore",
+                now=now,
+                detail=f"Iridium SBD gave up after {message.attempts} tries: {message.detail}",
+            )
         return False
     message.status, message.provider_ref, message.sent_at = Status.SENT, ref[:40], now
     message.detail = ""
@@ -100,9 +135,8 @@ def sbd_send_queued(
         return 0
     now = now or timezone.now()
     queued = SbdMessage.objects.filter(direction=Direction.OUT, status=Status.QUEUED)
-    return sum(
-        _send_one(message, transport, now) for message in queued.order_by("received_at")[:limit]
-    )
+    due = [m for m in queued.order_by("received_at")[:limit] if retry_due(m, now)]
+    return sum(_send_one(message, transport, now) for message in due)
 
 
 def sbd_send_command(

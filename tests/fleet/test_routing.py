@@ -12,10 +12,10 @@ from django.core.management import call_command
 from django.utils import timezone
 
 from commands.models import Command, Relay
-from commands.services import command_enqueue, command_relay_claim
+from commands.services import command_cancel, command_enqueue, command_relay_claim
 from edge_client.contract import compact_command
 from fleet.relays import configured_senders
-from fleet.routing import Refused, route_pending, routing_summary
+from fleet.routing import Refused, Sent, route_pending, routing_summary
 from links.routing import Route
 from links.services import link_count
 from tests.sbd.conftest import IMEI, MtEndpoint, mt_endpoint, sbd_vessel  # noqa: F401 (fixtures)
@@ -118,7 +118,7 @@ def test_a_command_no_link_can_carry_is_marked_and_not_tried_again(
 ) -> None:
     tries = []
 
-    def refuse(command: Command, now: dt.datetime) -> str:
+    def refuse(command: Command, now: dt.datetime) -> Sent:
         tries.append(command.uid)
         raise Refused("280 bytes: more than one message holds")
 
@@ -140,11 +140,11 @@ def test_a_refusing_link_hands_the_command_to_the_next(sbd_vessel: Vessel) -> No
     sbd_vessel.save()
     command = command_enqueue(vessel=sbd_vessel, kind="hold", params={})
 
-    def no_sms(command: Command, now: dt.datetime) -> str:
+    def no_sms(command: Command, now: dt.datetime) -> Sent:
         raise Refused("the gateway answered 500")
 
-    def sbd(command: Command, now: dt.datetime) -> str:
-        return "sent by Iridium SBD"
+    def sbd(command: Command, now: dt.datetime) -> Sent:
+        return Sent("sent by Iridium SBD")
 
     report = route_pending(senders={Route.SMS: no_sms, Route.SBD: sbd})
     assert report.relayed == [(str(command.uid), Route.SBD)]
@@ -159,7 +159,7 @@ def test_sms_is_only_for_a_glider(sbd_vessel: Vessel) -> None:  # noqa: F811
     sbd_vessel.save()
     move_to(sbd_vessel)
     sent = []
-    route_pending(senders={Route.SMS: lambda c, now: sent.append(c) or "sent"})
+    route_pending(senders={Route.SMS: lambda c, now: sent.append(c) or Sent("sent")})
     assert sent == []
 
 
@@ -217,7 +217,7 @@ def test_the_vessel_page_says_where_commands_go(
 
 def test_a_silent_vessel_over_budget_waits_for_http(sbd_vessel: Vessel) -> None:  # noqa: F811
     sbd_vessel.sbd_daily_credit_budget = 0
-    summary = routing_summary(sbd_vessel, {Route.SBD: lambda c, now: "sent"})
+    summary = routing_summary(sbd_vessel, {Route.SBD: lambda c, now: Sent("sent")})
     assert summary == "Queued commands wait for HTTP: never heard over HTTP, but sbd budget spent."
 
 
@@ -269,3 +269,84 @@ def test_a_failed_sms_hands_the_command_to_sbd(
     assert command.relay == Relay.SBD
     [note] = notes(command)
     assert note.startswith("urgent: sent by Iridium SBD")
+
+
+# -- what the review found: a pass reads its list before it sends ------------------------------
+
+
+def test_a_command_cancelled_while_a_pass_sends_another_is_not_relayed(
+    sbd_vessel: Vessel,  # noqa: F811
+) -> None:
+    first = command_enqueue(vessel=sbd_vessel, kind="arm", params={})
+    second = command_enqueue(vessel=sbd_vessel, kind="disarm", params={})
+    sent = []
+
+    def slow(command: Command, now: dt.datetime) -> Sent:
+        sent.append(command.kind)
+        if command.pk == first.pk:  # the operator cancels the second meanwhile
+            command_cancel(command=Command.objects.get(pk=second.pk), actor="alice")
+        return Sent("sent")
+
+    report = route_pending(senders={Route.SBD: slow})
+    assert sent == ["arm"] and report.impossible == []
+    second.refresh_from_db()
+    assert (second.status, second.relay) == ("cancelled", "")
+
+
+def test_an_sms_that_fails_for_now_is_tried_again_then_given_up(glider: Vessel) -> None:
+    glider.sms_number = "+61400000077"
+    glider.save()
+    command = command_enqueue(vessel=glider, kind="hold", params={})
+    tries = []
+
+    def down(command: Command, now: dt.datetime) -> Sent:
+        tries.append(now)
+        raise Refused("the gateway answered 503", temporary=True)
+
+    for _ in range(2):
+        assert route_pending(senders={Route.SMS: down}).retrying == [str(command.uid)]
+        command.refresh_from_db()
+        assert command.relay == ""  # released: the next pass tries again
+    assert route_pending(senders={Route.SMS: down}).impossible == [str(command.uid)]
+    command.refresh_from_db()
+    assert command.relay == Relay.NONE and len(tries) == 3
+    assert route_pending(senders={Route.SMS: down}).retrying == []
+    assert len(tries) == 3
+    assert notes(command)[0] == (
+        "never heard over HTTP, but not sent (sms: the gateway answered 503): "
+        "trying again next pass (try 1 of 3)"
+    )
+
+
+def test_a_glider_is_not_texted_past_its_rate_limit(glider: Vessel, settings: Any) -> None:
+    settings.SMS_RATE_LIMIT = 3
+    glider.sms_number = "+61400000077"
+    glider.save()
+    commands = [
+        command_enqueue(vessel=glider, kind="light", params={"state": s})
+        for s in ("on", "off", "on", "off", "on")
+    ]
+    texted = []
+    senders = {Route.SMS: lambda c, now: texted.append(c.pk) or Sent("sent")}
+    report = route_pending(senders=senders)
+    assert texted == [c.pk for c in commands[:3]] and len(report.relayed) == 3
+    assert route_pending(senders=senders).relayed == []  # the window is full: they wait
+    assert Command.objects.filter(relay="").count() == 2
+
+
+def test_urgent_commands_are_looked_at_first(sbd_vessel: Vessel) -> None:  # noqa: F811
+    heard_over_http(sbd_vessel, ago_s=5)  # reporting: only urgent ones are relayed
+    for _ in range(3):
+        command_enqueue(vessel=sbd_vessel, kind="arm", params={})
+    urgent = command_enqueue(vessel=sbd_vessel, kind="disarm", params={}, urgent=True)
+    relayed = route_pending(senders={Route.SBD: lambda c, now: Sent("sent")}, limit=1).relayed
+    assert relayed == [(str(urgent.uid), Route.SBD)]
+
+
+def test_a_relay_spends_its_real_cost_of_the_budget(sbd_vessel: Vessel) -> None:  # noqa: F811
+    sbd_vessel.sbd_daily_credit_budget = 5
+    sbd_vessel.save()
+    first = command_enqueue(vessel=sbd_vessel, kind="arm", params={})
+    command_enqueue(vessel=sbd_vessel, kind="disarm", params={})
+    report = route_pending(senders={Route.SBD: lambda c, now: Sent("a long one", 5)})
+    assert report.relayed == [(str(first.uid), Route.SBD)]  # 5 credits: the budget is spent

@@ -7,10 +7,11 @@ import datetime as dt
 from typing import Any
 
 import pytest
+from django.utils import timezone
 
 from commands.catalog import KINDS
 from commands.models import Command
-from commands.services import command_enqueue
+from commands.services import command_cancel, command_enqueue
 from edge_client.contract import compact_command
 from sbd.errors import SbdError
 from sbd.models import Direction, SbdMessage, Status
@@ -35,6 +36,10 @@ def mt(settings: Any, mt_endpoint: MtEndpoint) -> MtEndpoint:
     settings.SBD_ROCKBLOCK_PASSWORD = "s3cret"
     settings.SBD_MT_MAX_ATTEMPTS = 3
     return mt_endpoint
+
+
+def later(seconds: float) -> dt.datetime:
+    return timezone.now() + dt.timedelta(seconds=seconds)
 
 
 def move_to(vessel: Vessel) -> Command:
@@ -80,8 +85,10 @@ def test_a_temporary_failure_stays_queued_and_the_next_pass_sends_it(
     message.refresh_from_db()
     assert message.status == Status.QUEUED and message.attempts == 1
     assert "13 Insufficient credit" in message.detail
-    assert sbd_send_queued() == 0  # the 503
-    assert sbd_send_queued() == 1
+    assert sbd_send_queued() == 0 and len(mt.posts) == 1  # not due yet: backing off
+    assert sbd_send_queued(now=later(31)) == 0  # the 503
+    assert sbd_send_queued(now=later(60)) == 0 and len(mt.posts) == 2  # next due at 90 s
+    assert sbd_send_queued(now=later(91)) == 1
     message.refresh_from_db()
     assert (message.status, message.attempts, message.detail) == (Status.SENT, 3, "")
     assert len(mt.posts) == 3
@@ -97,13 +104,31 @@ def test_a_permanent_refusal_fails_the_message_at_once(mt: MtEndpoint, sbd_vesse
 
 def test_tries_are_given_up_after_the_limit(mt: MtEndpoint, sbd_vessel: Vessel) -> None:
     mt.answers = [(500, "")] * 5
-    message = sbd_send_command(move_to(sbd_vessel))
-    sbd_send_queued()
-    sbd_send_queued()
-    sbd_send_queued()
+    command = move_to(sbd_vessel)
+    message = sbd_send_command(command)
+    for seconds in (31, 91, 211, 451):
+        sbd_send_queued(now=later(seconds))
     message.refresh_from_db()
     assert (message.status, message.attempts) == (Status.FAILED, 3)
     assert len(mt.posts) == 3
+    # The command's history says so: a relay that gave up.
+    [note] = command.events.filter(actor="shore").values_list("detail", flat=True)
+    assert note == "Iridium SBD gave up after 3 tries: the SBD provider answered HTTP 500"
+
+
+def test_a_message_whose_command_moved_on_is_not_sent(mt: MtEndpoint, sbd_vessel: Vessel) -> None:
+    """Cancelled (or expired, or taken over HTTP) while RockBLOCK was down: never sent after."""
+    mt.answers = [(503, "busy")]
+    command = move_to(sbd_vessel)
+    message = sbd_send_command(command)
+    command_cancel(command=command, actor="alice")
+    assert sbd_send_queued(now=later(31)) == 0
+    message.refresh_from_db()
+    assert (message.status, message.detail) == (
+        Status.FAILED,
+        "not sent: the command is cancelled now",
+    )
+    assert len(mt.posts) == 1
 
 
 def test_without_an_account_nothing_is_sent_and_the_message_waits(
