@@ -216,6 +216,13 @@ class SbdFallback:
                 log.info("SBD: no new fixes to send")
                 self._last_session = now
                 return
+        if picked is not None:
+            # The shore keeps whole seconds from this message, and HTTP must bring the same
+            # times: rewritten before the session (a minute, at times), not after it, so an
+            # uplink round that posts these fixes meanwhile already sends the SBD times.
+            payload, items = picked
+            times = sent_times(payload, self.channels)
+            self.outbox.set_fix_times([(i.id, t) for i, t in zip(items, times, strict=True)])
         try:
             result = self.modem.exchange(picked[0] if picked else None)
             if fallback:
@@ -255,9 +262,6 @@ class SbdFallback:
         self.sessions += 1
         self.outbox.bump("sbd_messages")
         self._sent_up_to = max(self._sent_up_to, *(item.id for item in items))
-        # The shore keeps whole seconds from this message; HTTP must bring the same times.
-        times = sent_times(payload, self.channels)
-        self.outbox.set_fix_times([(i.id, t) for i, t in zip(items, times, strict=True)])
         log.info(
             "SBD: sent %d fixes in %d bytes (MOMSN %d); they stay queued for HTTP",
             len(items),

@@ -13,9 +13,11 @@ from django.utils import timezone
 from audit.services import audit_record
 from commands.errors import CommandError, CommandNotFound, TransitionError
 from commands.lifecycle import ACK_STATUSES, OPEN, Status, ack_is_stale, check_transition
-from commands.models import Command
+from commands.models import Command, CommandEvent, Relay
 from commands.services._transition import _storable_text, _transition
 from vessels.models import Vessel
+
+RELAYED = (Relay.SMS, Relay.SBD)
 
 
 def command_expire_due(*, now: dt.datetime | None = None, vessel: Vessel | None = None) -> int:
@@ -118,6 +120,21 @@ def command_ack(
                 command.refresh_from_db()
             continue
         if ack_is_stale(current, reported):
+            return command, False
+        if command.relay in RELAYED and current in (Status.CANCELLED, Status.EXPIRED):
+            # Relayed by SMS or SBD, it reached the boat anyway: neither link can recall it
+            # or carry its expiry. What the boat did goes in its history; the status stays.
+            CommandEvent.objects.create(
+                command=command,
+                at=now,
+                from_status=current,
+                to_status=current,
+                actor="boat",
+                detail=_storable_text(
+                    f"the boat reports {reported} (it had it by {command.relay} before it was "
+                    f"{current})" + (f": {detail}" if detail else "")
+                ),
+            )
             return command, False
         check_transition(current, reported)  # raises TransitionError
         if _transition(command, reported, now=now, actor="boat", detail=_storable_text(detail)):

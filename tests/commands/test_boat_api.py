@@ -349,3 +349,23 @@ def test_head_on_the_poll_answers_the_etag_and_hands_nothing_over(
     polled = boat_a.get(COMMANDS)
     assert [c["uid"] for c in polled.json()["commands"]] == [str(command_a.uid)]
     assert polled["ETag"] == etag
+
+
+@pytest.mark.parametrize("ended", ["cancelled", "expired"])
+def test_a_relayed_command_that_ended_here_still_hears_what_the_boat_did(
+    boat_a: APIClient, command_a: Command, ended: str
+) -> None:
+    """Relayed by SMS or SBD, then cancelled or expired here: neither link can recall it, so
+    the boat may still run it. Its ack is taken (no 409 to re-send forever) and kept in the
+    history; the status stays what it was."""
+    Command.objects.filter(pk=command_a.pk).update(relay="sbd", status=ended)
+    response = boat_a.post(
+        ack_url(command_a.uid), {"status": "done", "detail": "arrived"}, format="json"
+    )
+    assert response.status_code == 200
+    assert response.json() == {"uid": str(command_a.uid), "status": ended}
+    event = command_a.events.get(actor="boat")
+    assert (event.from_status, event.to_status) == (ended, ended)
+    assert (
+        event.detail == f"the boat reports done (it had it by sbd before it was {ended}): arrived"
+    )

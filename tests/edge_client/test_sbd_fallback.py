@@ -169,6 +169,20 @@ def test_garbage_from_the_shore_is_logged_and_dropped(sim, modem_port, outbox, f
     assert link.link.is_alive()
 
 
+def test_fix_times_are_whole_seconds_before_the_session_not_after_it(
+    sim, modem_port, outbox, fallbacks
+):
+    """A session can take a minute: an uplink round that posts these fixes meanwhile must
+    already send the times the SBD message carries, or the shore would keep both copies."""
+    for n in range(3):
+        outbox.add_fix(fix(n))
+    sim.network = False  # no sky: the session retries and nothing is delivered yet
+    fallbacks(modem_port, outbox, failing_for=10.0)
+    wait_until(lambda: "AT+SBDIX" in sim.commands, 5, "a session under way")
+    times = [item.body["time"] for item in outbox.peek("fix", 10)]
+    assert times == [T0, T0 + 10, T0 + 20] and sim.delivered == []
+
+
 def test_a_permanent_failure_ends_sbd_with_one_error(sim, modem_port, outbox, fallbacks, caplog):
     outbox.add_fix(fix(0))
     sim.fail_codes.append(15)  # access denied: no subscription
