@@ -136,26 +136,7 @@ class BitReader:
         return (buf >> have) - (1 << k)
 
     def signed(self, k: int) -> int:
-        # exp_golomb(), inlined: most of a fix is signed deltas (bench.compact, decode).
-        if self._have <= MAX_PREFIX:
-            self._fill(MAX_PREFIX + 1)
-        buf = self._buf
-        zeros = self._have - buf.bit_length()
-        if zeros > MAX_PREFIX:
-            raise BitsError("a number longer than any this format writes")
-        if not buf:
-            raise BitsError("the payload ends in the middle of a field")
-        width = 2 * zeros + 1 + k
-        if width > self._remaining:
-            raise BitsError("the payload ends in the middle of a field")
-        if self._have < width:
-            self._fill(width)
-            buf = self._buf
-        have = self._have - width
-        self._buf = buf & ((1 << have) - 1)
-        self._have = have
-        self._remaining -= width
-        z = (buf >> have) - (1 << k)
+        z = self.exp_golomb(k)
         return (z >> 1) if not z & 1 else -((z + 1) >> 1)
 
     @property
