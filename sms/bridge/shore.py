@@ -50,12 +50,11 @@ from django.conf import settings
 from django.core.exceptions import ValidationError
 from django.db import DatabaseError, IntegrityError, close_old_connections, connections
 from django.utils import timezone
-from django.utils.dateparse import parse_datetime
 
 from audit.context import audit_origin
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import FINAL, Status
-from commands.models import Command, Source
+from commands.models import Source
 from commands.services import command_enqueue, command_withdraw_queued
 from edge_client.client import COMMANDS_PATH, TELEMETRY_PATH, post_ack
 from edge_client.contract.backoff import after_failures
@@ -64,6 +63,7 @@ from edge_client.transports.base import Transport, TransportError
 from edge_client.transports.http import HttpTransport
 from sms import selectors
 from sms.bridge.shore_config import ShoreConfig
+from sms.bridge.shore_wire import command_report_wire, sms_wire, when
 from sms.command_text import SHORE_CREATED_BY
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services import authorised_numbers_replace
@@ -82,7 +82,6 @@ SMS_PATH = "/api/v1/boat/sms/"
 REPORT_PATH = "/api/v1/boat/commands/report/"
 # The shore takes at most this many commands per report (commands.api.boat).
 REPORT_MAX_BATCH = 200
-REPORT_DETAIL_MAX = 2000  # the longest result_detail the shore takes in a report
 # Report batches sent before an SMS upload; more backlog than that, and the SMS waits a round.
 REPORT_BEFORE_SMS_MAX = 10
 # A local command queued from the shore (polled, or texted with its reference): created_by
@@ -352,7 +351,7 @@ class ShoreLink:
                         params=wire.get("params") or {},
                         source=Source.API,
                         created_by=CREATED_BY,
-                        expires_at=_when(wire.get("expires_at")),
+                        expires_at=when(wire.get("expires_at")),
                         uid=uid,
                     )
             except (IntegrityError, ValidationError):
@@ -522,58 +521,3 @@ class ShoreLink:
         self._count("sms_uploaded", len(batch))
         self._set_counter(SMS_WATERMARK, batch[-1].pk)
         return True
-
-
-def _when(value: Any) -> dt.datetime | None:
-    if not isinstance(value, str) or not value:
-        return None
-    return parse_datetime(value)
-
-
-def _iso(value: dt.datetime | None) -> str | None:
-    return value.isoformat() if value is not None else None
-
-
-def command_report_wire(command: Command) -> dict[str, Any]:
-    """A local command as ``POST boat/commands/report/`` takes it: as it stands now.
-
-    The C&C's answer travels as ``result_detail``, for the shore's operators. Its fields on the
-    events here (``cc_code``, ``cc_reason``, the request's ``tid``) stay on the glider: nothing
-    on the shore reads them (it sends no SMS replies, and a tid means nothing off this serial
-    link), and an optional field can still be added later without breaking either side."""
-    return {
-        "uid": str(command.uid),
-        "kind": command.kind,
-        "params": command.params,
-        "source": command.source,
-        "created_by": command.created_by,
-        "created_at": command.created_at.isoformat(),
-        "status": command.status,
-        "sent_at": _iso(command.sent_at),
-        "acknowledged_at": _iso(command.acknowledged_at),
-        "finished_at": _iso(command.finished_at),
-        "result_detail": command.result_detail[:REPORT_DETAIL_MAX],
-    }
-
-
-def sms_wire(message: SmsMessage) -> dict[str, Any]:
-    """A local SMS log entry as ``POST boat/sms/`` takes it; ``id`` is the local pk."""
-    return {
-        "id": str(message.pk),
-        "direction": message.direction,
-        "number": message.number,
-        "text": message.text,
-        "created_at": message.created_at.isoformat(),
-        "received_at": _iso(message.received_at),
-        "modem_timestamp": _iso(message.modem_timestamp),
-        "sent_at": _iso(message.sent_at),
-        "authorised": message.authorised,
-        "outcome": message.outcome,
-        "detail": message.detail,
-        "status": message.status,
-        "status_detail": message.status_detail,
-        "reference": message.reference,
-        "parsed": message.parsed or [],
-        "reply_to": str(message.reply_to_id) if message.reply_to_id else None,
-        "commands": [str(c.uid) for c in message.commands.all()],
-    }
