@@ -10,11 +10,12 @@ through the boat API like any boat:
   duplicate on the shore (unique vessel + recorded_at);
 - the vessel's shore commands are polled with an ETag and queued locally under the *same uid*
   (``commands.services.command_enqueue``), so a re-poll never queues one twice and the Level 2
-  source hands them to the C&C like SMS commands; their progress goes back as acks through the
-  outbox (``acknowledged`` once handed to the C&C, then ``done``/``failed`` with the detail; a
-  command superseded here is ``superseded`` there, one cancelled or expired ``failed``), which
-  survives outages
-  and restarts. The outbox's command table remembers which shore uids are still running here;
+  source hands them to the C&C like SMS commands (a uid held here already as another command,
+  one an SMS under that uid said, is not taken for it: the shore's is acked ``failed``); their
+  progress goes back as acks through the outbox (``acknowledged`` once handed to the C&C, then
+  ``done``/``failed`` with the detail; a command superseded here is ``superseded`` there, one
+  cancelled or expired ``failed``), which survives outages and restarts. The outbox's command
+  table remembers which shore uids are still running here;
 - the authorised numbers are fetched with an ETag and replace the local list for this vessel
   (``sms.services.authorised_numbers_replace``); while the shore is away the last list stays;
 - the commands created here (by SMS, or the glider's own admin) are reported up as they stand
@@ -64,7 +65,7 @@ from edge_client.transports.http import HttpTransport
 from sms import selectors
 from sms.bridge.shore_config import ShoreConfig
 from sms.bridge.shore_wire import command_report_wire, sms_wire, when
-from sms.command_text import SHORE_CREATED_BY
+from sms.command_text import SHORE_CREATED_BY, same_command
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services import authorised_numbers_replace
 from sms.services.shore import SHORE_ORIGIN
@@ -152,6 +153,8 @@ class ShoreLink:
         self.commands_etag: str | None = None
         self.numbers_etag: str | None = None
         self._handed_over_acked: set[str] = set()
+        # Shore uids held here as another command, acked failed once (see _held_as_polled).
+        self._mismatched: set[str] = set()
         self._closed = False
         self._steps = [
             _Step(self.do_one_report_results, config.push_period_s, needs_link=False),
@@ -357,8 +360,10 @@ class ShoreLink:
             except (IntegrityError, ValidationError):
                 if selectors.bridge_command_vessel(uid=uid) != self.vessel.pk:
                     raise
-                # Queued meanwhile from an SMS carrying the shore's reference: the same command.
+                # Queued meanwhile from an SMS carrying the shore's reference.
                 log.info("shore command %s came by SMS while it was being polled", key)
+                if not self._held_as_polled(uid, wire):
+                    return False
             except (CatalogError, CommandError) as exc:
                 # Refused here (the glider's catalog, an inactive vessel): the shore hears why.
                 log.warning("shore command %s refused here: %s", key, exc)
@@ -366,9 +371,34 @@ class ShoreLink:
                     self.outbox.add_ack(key, Status.FAILED, f"refused by the glider: {exc}")
                     self.outbox.command_finish(key)
                 return False
+        elif not self._held_as_polled(uid, wire):
+            return False
         # Claimed after the local commit: a crash in between finds the command here on the
         # next poll (the shore offers it until acked) and claims it then.
         return self.outbox.command_claim(key, str(wire.get("kind"))[:20])
+
+    def _held_as_polled(self, uid: uuid.UUID, wire: dict[str, Any]) -> bool:
+        """Whether the command held here under a polled shore command's uid says the same
+        (kind, params). When not (an SMS under that uid said another), it is not taken as the
+        shore's: the shore hears once that it failed here, and the one held here is no longer
+        acked up under that uid (it is still reported nowhere: it is the shore's by its uid)."""
+        said = selectors.bridge_command_said(uid=uid)
+        kind, params = str(wire.get("kind")), wire.get("params") or {}
+        if said is None or (isinstance(params, dict) and same_command(kind, params, *said)):
+            return True
+        key = str(uid)
+        if key not in self._mismatched:
+            self._mismatched.add(key)
+            log.error(
+                "shore command %s (%s %s) is held here as another (%s %s): acked failed",
+                key, kind, params, said[0], said[1],
+            )  # fmt: skip
+            self.outbox.command_claim(key, kind[:20])  # already claimed if it came by SMS
+            detail = f"the glider holds a different command under this uid: {said[0]} {said[1]}"
+            self.outbox.add_ack(key, Status.FAILED, detail)
+            self.outbox.command_finish(key)
+            self._handed_over_acked.discard(key)
+        return False
 
     def do_one_report_results(self) -> bool:
         """Queue an ack for each shore command whose progress here is news (no network)."""

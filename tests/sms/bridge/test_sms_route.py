@@ -319,6 +319,54 @@ def test_a_signed_reference_to_a_uid_held_here_as_another_command_is_refused(
     assert same.reply_texts == ["#LIGHT ON DUPLICATE (queued here)"]
 
 
+@pytest.mark.django_db
+def test_a_polled_command_under_a_uid_texted_here_as_another_is_acked_failed(
+    glider, shore_number, link, caplog
+):
+    """The other way round: the SMS came first (as "off"), the poll lists "on" under its uid.
+    Not taken as the same command: the shore hears that the glider holds another under it,
+    and no ack of the texted one goes up under that uid."""
+    shore_link, shore = link
+    uid = uuid.uuid4()
+    texted(glider, render("light", {"state": "off"}, uid, KEY_HASH))
+    shore_link.do_one_report_results()  # the link learns of it: its acks would go up by uid
+    shore.open = [{"uid": str(uid), "kind": "light", "params": {"state": "on"}}]
+    with caplog.at_level(logging.ERROR, logger="sms.bridge.shore"):
+        assert shore_link.do_one_poll_commands() is False
+        assert shore_link.do_one_poll_commands() is False  # listed again: said once
+    shore_link.do_one_flush_acks()
+    path = ACK_PATH.format(uid=uid)
+    ((status, detail),) = [(b["status"], b["detail"]) for p, b in shore.posts if p == path]
+    assert status == "failed" and "holds a different command under this uid" in detail
+    assert "light" in detail and "off" in detail
+    assert any(str(uid) in r.getMessage() for r in caplog.records if r.levelname == "ERROR")
+    Command.objects.filter(uid=uid).update(status="done")  # the texted one ran here
+    shore_link.do_one_report_results()
+    shore_link.do_one_flush_acks()
+    assert shore.acks(uid) == ["failed"]  # never "done" for the shore's "on"
+    assert Command.objects.filter(uid=uid).count() == 1
+
+
+@pytest.mark.django_db
+def test_a_poll_racing_an_sms_of_another_command_under_its_uid_acks_it_failed(
+    glider, shore_number, link, monkeypatch
+):
+    """The race of the test above, with the SMS saying another command: the poll's insert
+    finds the uid taken, and does not take what it holds for the shore's command."""
+    shore_link, shore = link
+    uid = uuid.uuid4()
+    texted(glider, render("fhead", {"bearing": 90}, uid, KEY_HASH))
+    looked_up = selectors.bridge_command_vessel
+    answers = iter([None])
+    monkeypatch.setattr(selectors, "bridge_command_vessel",
+                        lambda *, uid: next(answers, looked_up(uid=uid)))  # fmt: skip
+    shore.open = [{"uid": str(uid), "kind": "fhead", "params": {"bearing": 270}}]
+    assert shore_link.do_one_poll_commands() is False
+    shore_link.do_one_flush_acks()
+    assert shore.acks(uid) == ["failed"]
+    assert Command.objects.get(uid=uid).params == {"bearing": 90}
+
+
 @pytest.mark.django_db(transaction=True)
 def test_a_poll_and_an_sms_of_one_uid_at_once_queue_it_once(glider, shore_number):
     """The shore link's poll is inserting the uid, not yet committed, when the SMS comes: the
