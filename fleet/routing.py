@@ -206,6 +206,8 @@ def _relay(
             temporary = temporary or exc.temporary
             continue
         note = f"{decision.reason}: {sent.note}"
+        if reasons:  # the links before it that did not carry it, and why
+            note += f" (not by {'; '.join(reasons)})"
         command_note(command=command, actor="shore", now=now, detail=note)
         logger.info("command %s relayed by %s (%s)", command.uid, route.value, decision.reason)
         return route, sent.cost

@@ -7,6 +7,7 @@ import datetime as dt
 import uuid
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 from django.db.models import Q, QuerySet
 
@@ -148,6 +149,11 @@ def bridge_shore_commands_by_sms_after(
 def bridge_command_vessel(*, uid: uuid.UUID) -> int | None:
     """The id of the vessel whose command has ``uid`` (None: no command has it)."""
     return Command.objects.filter(uid=uid).values_list("vessel_id", flat=True).first()
+
+
+def bridge_command_said(*, uid: uuid.UUID) -> tuple[str, dict[str, Any]] | None:
+    """The kind and params of the command with ``uid`` (None: no command has it)."""
+    return Command.objects.filter(uid=uid).values_list("kind", "params").first()
 
 
 def bridge_commands_by_uid(uids: Iterable[str]) -> dict[str, Command]:

@@ -51,6 +51,7 @@ from sms.level2.payload import (
 )
 from sms.level2.runner import BAUDRATE, PayloadRunner
 from sms.modem import Modem, ModemConfig
+from vessels.keys import hash_key
 from vessels.models import Vessel
 
 from .commands import QUARANTINE_S, RESULT_TIMEOUT_S, DatabaseCommandSource
@@ -258,6 +259,8 @@ class Bridge:
             reply_window_s=config.reply_window,
             readings=self.readings.snapshot,
             refresh=self.fixes.flush,
+            # The shore signs its command SMS with this key's hash; no key, no shore SMS.
+            shore_key_hash=hash_key(config.shore_key) if config.shore_key else None,
             **dict(sms_options or {}),  # type: ignore[arg-type]
         )
         self.started_at = time.monotonic()

@@ -10,11 +10,12 @@ through the boat API like any boat:
   duplicate on the shore (unique vessel + recorded_at);
 - the vessel's shore commands are polled with an ETag and queued locally under the *same uid*
   (``commands.services.command_enqueue``), so a re-poll never queues one twice and the Level 2
-  source hands them to the C&C like SMS commands; their progress goes back as acks through the
-  outbox (``acknowledged`` once handed to the C&C, then ``done``/``failed`` with the detail; a
-  command superseded here is ``superseded`` there, one cancelled or expired ``failed``), which
-  survives outages
-  and restarts. The outbox's command table remembers which shore uids are still running here;
+  source hands them to the C&C like SMS commands (a uid held here already as another command,
+  one an SMS under that uid said, is not taken for it: the shore's is acked ``failed``); their
+  progress goes back as acks through the outbox (``acknowledged`` once handed to the C&C, then
+  ``done``/``failed`` with the detail; a command superseded here is ``superseded`` there, one
+  cancelled or expired ``failed``), which survives outages and restarts. The outbox's command
+  table remembers which shore uids are still running here;
 - the authorised numbers are fetched with an ETag and replace the local list for this vessel
   (``sms.services.authorised_numbers_replace``); while the shore is away the last list stays;
 - the commands created here (by SMS, or the glider's own admin) are reported up as they stand
@@ -50,12 +51,11 @@ from django.conf import settings
 from django.core.exceptions import ValidationError
 from django.db import DatabaseError, IntegrityError, close_old_connections, connections
 from django.utils import timezone
-from django.utils.dateparse import parse_datetime
 
 from audit.context import audit_origin
 from commands.errors import CatalogError, CommandError
 from commands.lifecycle import FINAL, Status
-from commands.models import Command, Source
+from commands.models import Source
 from commands.services import command_enqueue, command_withdraw_queued
 from edge_client.client import COMMANDS_PATH, TELEMETRY_PATH, post_ack
 from edge_client.contract.backoff import after_failures
@@ -64,7 +64,8 @@ from edge_client.transports.base import Transport, TransportError
 from edge_client.transports.http import HttpTransport
 from sms import selectors
 from sms.bridge.shore_config import ShoreConfig
-from sms.command_text import SHORE_CREATED_BY
+from sms.bridge.shore_wire import command_report_wire, sms_wire, when
+from sms.command_text import SHORE_CREATED_BY, same_command
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services import authorised_numbers_replace
 from sms.services.shore import SHORE_ORIGIN
@@ -82,7 +83,6 @@ SMS_PATH = "/api/v1/boat/sms/"
 REPORT_PATH = "/api/v1/boat/commands/report/"
 # The shore takes at most this many commands per report (commands.api.boat).
 REPORT_MAX_BATCH = 200
-REPORT_DETAIL_MAX = 2000  # the longest result_detail the shore takes in a report
 # Report batches sent before an SMS upload; more backlog than that, and the SMS waits a round.
 REPORT_BEFORE_SMS_MAX = 10
 # A local command queued from the shore (polled, or texted with its reference): created_by
@@ -153,6 +153,8 @@ class ShoreLink:
         self.commands_etag: str | None = None
         self.numbers_etag: str | None = None
         self._handed_over_acked: set[str] = set()
+        # Shore uids held here as another command, acked failed once (see _held_as_polled).
+        self._mismatched: set[str] = set()
         self._closed = False
         self._steps = [
             _Step(self.do_one_report_results, config.push_period_s, needs_link=False),
@@ -352,14 +354,16 @@ class ShoreLink:
                         params=wire.get("params") or {},
                         source=Source.API,
                         created_by=CREATED_BY,
-                        expires_at=_when(wire.get("expires_at")),
+                        expires_at=when(wire.get("expires_at")),
                         uid=uid,
                     )
             except (IntegrityError, ValidationError):
                 if selectors.bridge_command_vessel(uid=uid) != self.vessel.pk:
                     raise
-                # Queued meanwhile from an SMS carrying the shore's reference: the same command.
+                # Queued meanwhile from an SMS carrying the shore's reference.
                 log.info("shore command %s came by SMS while it was being polled", key)
+                if not self._held_as_polled(uid, wire):
+                    return False
             except (CatalogError, CommandError) as exc:
                 # Refused here (the glider's catalog, an inactive vessel): the shore hears why.
                 log.warning("shore command %s refused here: %s", key, exc)
@@ -367,9 +371,34 @@ class ShoreLink:
                     self.outbox.add_ack(key, Status.FAILED, f"refused by the glider: {exc}")
                     self.outbox.command_finish(key)
                 return False
+        elif not self._held_as_polled(uid, wire):
+            return False
         # Claimed after the local commit: a crash in between finds the command here on the
         # next poll (the shore offers it until acked) and claims it then.
         return self.outbox.command_claim(key, str(wire.get("kind"))[:20])
+
+    def _held_as_polled(self, uid: uuid.UUID, wire: dict[str, Any]) -> bool:
+        """Whether the command held here under a polled shore command's uid says the same
+        (kind, params). When not (an SMS under that uid said another), it is not taken as the
+        shore's: the shore hears once that it failed here, and the one held here is no longer
+        acked up under that uid (it is still reported nowhere: it is the shore's by its uid)."""
+        said = selectors.bridge_command_said(uid=uid)
+        kind, params = str(wire.get("kind")), wire.get("params") or {}
+        if said is None or (isinstance(params, dict) and same_command(kind, params, *said)):
+            return True
+        key = str(uid)
+        if key not in self._mismatched:
+            self._mismatched.add(key)
+            log.error(
+                "shore command %s (%s %s) is held here as another (%s %s): acked failed",
+                key, kind, params, said[0], said[1],
+            )  # fmt: skip
+            self.outbox.command_claim(key, kind[:20])  # already claimed if it came by SMS
+            detail = f"the glider holds a different command under this uid: {said[0]} {said[1]}"
+            self.outbox.add_ack(key, Status.FAILED, detail)
+            self.outbox.command_finish(key)
+            self._handed_over_acked.discard(key)
+        return False
 
     def do_one_report_results(self) -> bool:
         """Queue an ack for each shore command whose progress here is news (no network)."""
@@ -522,58 +551,3 @@ class ShoreLink:
         self._count("sms_uploaded", len(batch))
         self._set_counter(SMS_WATERMARK, batch[-1].pk)
         return True
-
-
-def _when(value: Any) -> dt.datetime | None:
-    if not isinstance(value, str) or not value:
-        return None
-    return parse_datetime(value)
-
-
-def _iso(value: dt.datetime | None) -> str | None:
-    return value.isoformat() if value is not None else None
-
-
-def command_report_wire(command: Command) -> dict[str, Any]:
-    """A local command as ``POST boat/commands/report/`` takes it: as it stands now.
-
-    The C&C's answer travels as ``result_detail``, for the shore's operators. Its fields on the
-    events here (``cc_code``, ``cc_reason``, the request's ``tid``) stay on the glider: nothing
-    on the shore reads them (it sends no SMS replies, and a tid means nothing off this serial
-    link), and an optional field can still be added later without breaking either side."""
-    return {
-        "uid": str(command.uid),
-        "kind": command.kind,
-        "params": command.params,
-        "source": command.source,
-        "created_by": command.created_by,
-        "created_at": command.created_at.isoformat(),
-        "status": command.status,
-        "sent_at": _iso(command.sent_at),
-        "acknowledged_at": _iso(command.acknowledged_at),
-        "finished_at": _iso(command.finished_at),
-        "result_detail": command.result_detail[:REPORT_DETAIL_MAX],
-    }
-
-
-def sms_wire(message: SmsMessage) -> dict[str, Any]:
-    """A local SMS log entry as ``POST boat/sms/`` takes it; ``id`` is the local pk."""
-    return {
-        "id": str(message.pk),
-        "direction": message.direction,
-        "number": message.number,
-        "text": message.text,
-        "created_at": message.created_at.isoformat(),
-        "received_at": _iso(message.received_at),
-        "modem_timestamp": _iso(message.modem_timestamp),
-        "sent_at": _iso(message.sent_at),
-        "authorised": message.authorised,
-        "outcome": message.outcome,
-        "detail": message.detail,
-        "status": message.status,
-        "status_detail": message.status_detail,
-        "reference": message.reference,
-        "parsed": message.parsed or [],
-        "reply_to": str(message.reply_to_id) if message.reply_to_id else None,
-        "commands": [str(c.uid) for c in message.commands.all()],
-    }

@@ -78,8 +78,11 @@ class SmsLink:
         max_attempts: int = MAX_ATTEMPTS,
         now: Callable[[], dt.datetime] = timezone.now,
         clock: Callable[[], float] = time.monotonic,
+        shore_key_hash: str | None = None,
     ) -> None:
         self.vessel = vessel
+        # The hash of the shore link's key: checks the reference of the shore's command SMS.
+        self.shore_key_hash = shore_key_hash
         self.modem = modem
         self.reply_window_s = reply_window_s
         self.readings = readings
@@ -188,6 +191,7 @@ class SmsLink:
             table=self.table,
             reply_window_s=self.reply_window_s,
             readings=self.readings() if self.readings else None,
+            shore_key_hash=self.shore_key_hash,
         )
         seen = " (seen before)" if result.duplicate else ""
         if result.outcome == Outcome.STRANGER:

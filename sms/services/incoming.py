@@ -72,6 +72,7 @@ def sms_handle_incoming(
     send_replies: bool = True,
     reply_window_s: float = 0.0,
     readings: Mapping[str, float] | None = None,
+    shore_key_hash: str | None = None,
 ) -> SmsOutcome:
     """Handle one SMS that reached ``vessel``'s modem; the one way in for every SMS.
 
@@ -93,7 +94,12 @@ def sms_handle_incoming(
        sensor readings) answer ``#STATUS`` before the last fix's.
     7. A text ending with a shore reference (``ref:…``, :mod:`sms.command_text`: the shore
        texted one of its commands) is that one command, queued under the shore command's uid
-       and created by ``shore``; a uid known here already is answered ``DUPLICATE``.
+       and created by ``shore``, once the reference's MAC verifies under ``shore_key_hash``
+       (the SHA-256 hex of the key the glider's shore link presents). A reference that does
+       not verify (another key, the command changed under it, an old unsigned one, no key
+       here) is not the shore's: the whole text is refused with an error, nothing runs, and
+       it is logged. A uid known here already is answered ``DUPLICATE`` when the SMS says the
+       same command (kind and parameters), refused with an error when it does not.
 
     Everything is written in one transaction.
     """
@@ -117,6 +123,7 @@ def sms_handle_incoming(
                 send_replies=send_replies,
                 reply_window_s=reply_window_s,
                 readings=readings,
+                shore_key_hash=shore_key_hash,
             )
     except IntegrityError:
         # Two deliveries of one SMS racing: the other one committed first.
@@ -162,6 +169,7 @@ def _handle(
     send_replies: bool,
     reply_window_s: float = 0.0,
     readings: Mapping[str, float] | None = None,
+    shore_key_hash: str | None = None,
 ) -> SmsOutcome:
     e164 = e164_or_blank(number)
     message = SmsMessage(
@@ -188,8 +196,14 @@ def _handle(
         logged = _logged(message, Outcome.RATE_LIMITED, f"{limit}; {again}")
         notice = replying.rate_notice(message, entry, until, send_replies=send_replies)
         return replace(logged, replies=(notice,) if notice else ())
-    rest, shore_uid = command_text.split_reference(text)
-    items = language.parse(rest, vessel_kind=vessel.kind, table=table)
+    rest, token = command_text.split_reference(text)
+    shore_uid = None
+    if token is not None:
+        shore_uid = command_text.verified_uid(rest, token, shore_key_hash)
+    if token is not None and shore_uid is None:
+        items = [_not_ours(number, token, has_key=bool(shore_key_hash))]
+    else:
+        items = language.parse(rest, vessel_kind=vessel.kind, table=table)
     if shore_uid is not None:
         items = _one_shore_command(items, shore_uid)
     message.parsed = [item.as_dict() for item in items]
@@ -319,6 +333,18 @@ def _carry_out(
     return answers, queued
 
 
+def _not_ours(number: str, token: str, *, has_key: bool) -> Item:
+    """The one item of a text whose reference does not verify: an error, so nothing in it
+    runs (not even a command before it: the text is not what the shore sent, if it ever did)."""
+    why = (
+        "not signed with this glider's shore key, or the text was changed"
+        if has_key
+        else "no shore key is configured here to check it"
+    )
+    logger.warning("SMS from %s: reference %s does not verify (%s); refused", number, token, why)
+    return Item(ItemKind.ERROR, "", error="ref not valid: text refused", commanding=True)
+
+
 def _one_shore_command(items: list[Item], uid: uuid.UUID) -> list[Item]:
     """The items of an SMS that carries a shore reference: one command (or its refusal), or
     one error; a reference names one command, never a query or several."""
@@ -333,13 +359,11 @@ def _take_from_shore(
 ) -> tuple[Answer, Command | None]:
     """Queue an SMS's command as the shore's own, under the shore's uid (created by
     ``shore``: the shore link acks it up by uid, and never queues that uid again from a poll);
-    a uid known here already is answered as a duplicate and not run twice."""
-    known = Command.objects.filter(uid=uid).values_list("vessel_id", "status").first()
-    if known is not None and known[0] != vessel.pk:
-        answer = language.answer_command(item, "ERR ref names another vessel's command", error=True)
-        return answer, None
+    a uid known here already is answered as a duplicate and not run twice, or refused when the
+    SMS says another command than the one known under it."""
+    known = _known_answer(item, vessel=vessel, uid=uid)
     if known is not None:
-        return language.answer_command(item, f"DUPLICATE ({known[1]} here)"), None
+        return known, None
     try:
         with transaction.atomic():  # a savepoint: a poll of the same uid racing this one
             command = command_enqueue(
@@ -352,7 +376,29 @@ def _take_from_shore(
             )
     except (IntegrityError, ValidationError):
         logger.info("shore command %s came by SMS and by the shore link at once", uid)
-        return language.answer_command(item, "DUPLICATE (queued here)"), None
+        known = _known_answer(item, vessel=vessel, uid=uid)
+        return known or language.answer_command(item, "DUPLICATE (queued here)"), None
     except CommandError as exc:
         return language.answer_command(item, f"ERR {exc.message}", error=True), None
     return language.answer_command(item, "QUEUED"), command
+
+
+def _known_answer(item: Item, *, vessel: Vessel, uid: uuid.UUID) -> Answer | None:
+    """The answer to a shore reference whose uid is known here already (None: it is not):
+    another vessel's command, a different command (refused and logged: the shore's reference
+    cannot name two commands), or the same one (a duplicate, not run twice)."""
+    known = (
+        Command.objects.filter(uid=uid).values_list("vessel_id", "status", "kind", "params").first()
+    )
+    if known is None:
+        return None
+    vessel_id, status, kind, params = known
+    if vessel_id != vessel.pk:
+        return language.answer_command(item, "ERR ref names another vessel's command", error=True)
+    if not command_text.same_command(item.command, item.params, kind, params):
+        logger.warning(
+            "SMS reference %s says %s %s, but %s %s is known here under that uid; refused",
+            uid, item.command, dict(item.params), kind, params,
+        )  # fmt: skip
+        return language.answer_command(item, "ERR ref names another command here", error=True)
+    return language.answer_command(item, f"DUPLICATE ({status} here)")

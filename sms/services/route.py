@@ -1,7 +1,12 @@
 """A shore command to its glider by SMS (docs/links.md, 'Commands by SMS'): one SMS in the
-glider's own language with a reference to the command's uid (``sms.command_text``), sent
-through the shore's SMS sender (the alerts' modem or gateway, which the caller passes: sms
+glider's own language with a signed reference to the command's uid (``sms.command_text``),
+sent through the shore's SMS sender (the alerts' modem or gateway, which the caller passes: sms
 sits below alerts), logged and counted.
+
+The reference is signed with the hash of the vessel key the glider's shore link presents: of
+the vessel's active keys, the one used most recently (``VesselKey.last_used_at``; never used:
+the newest made). The glider checks it with the key it is configured with, so a key changed on
+the glider signs correctly once it has been used (its first poll on the new key).
 
 Which link a command takes is not decided here: ``sms_send_command`` is called by whoever
 decides (the per-vessel routing), as ``sbd_send_command`` is for Iridium. It does not move the
@@ -15,6 +20,7 @@ import logging
 from typing import Protocol
 
 from django.db import transaction
+from django.db.models import F
 from django.utils import timezone
 
 from commands.models import Command
@@ -27,6 +33,7 @@ from sms.gsm7 import on_air
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.services._common import _save_checked
 from sms.services.outgoing import sms_mark_failed, sms_mark_sent
+from vessels.models import Vessel, VesselKey
 
 logger = logging.getLogger(__name__)
 
@@ -48,8 +55,9 @@ def sms_send_command(
     """Text ``command`` to its vessel's own number; the outgoing SMS as it ended.
 
     1. Raises (SmsRouteError, nothing written or sent) when it cannot go: the vessel is not a
-       Wave Glider or has no SMS number (RouteNotConfigured), the command cannot be said in
-       one SMS (NotSayable: a mission, a fence, a long ``#FCOURSE``).
+       Wave Glider, has no SMS number or no active vessel key to sign the reference with
+       (RouteNotConfigured), the command cannot be said in one SMS (NotSayable: a mission, a
+       fence, a long ``#FCOURSE``).
     2. The SMS is logged as an outgoing message of the vessel, linked to the command, before
        it is handed over: a crash while sending leaves it *pending*, never unrecorded.
     3. Sent: marked *sent* (with the modem's reference when it gives one) and counted on the
@@ -63,8 +71,26 @@ def sms_send_command(
         raise RouteNotConfigured(f"{vessel.name} is not a Wave Glider: it reads no SMS commands")
     if not vessel.sms_number:
         raise RouteNotConfigured(f"{vessel.name} has no SMS number")
-    text = render(command.kind, command.params, command.uid)
+    key_hash = signing_key_hash(vessel)
+    if key_hash is None:
+        raise RouteNotConfigured(
+            f"{vessel.name} has no active vessel key: an SMS command's reference is signed "
+            "with the key the glider's shore link uses, and the glider refuses one unsigned"
+        )
+    text = render(command.kind, command.params, command.uid, key_hash)
     return _send(command, text, sender, now or timezone.now())
+
+
+def signing_key_hash(vessel: Vessel) -> str | None:
+    """The hash of the key a referenced SMS to ``vessel`` is signed with: its active key used
+    most recently, else its newest active key (see the module docstring); None: no active key.
+    A revoked key never signs: the glider may still hold it, but the shore no longer trusts it."""
+    return (
+        VesselKey.objects.filter(vessel=vessel, revoked_at__isnull=True)
+        .order_by(F("last_used_at").desc(nulls_last=True), "-created_at", "-pk")
+        .values_list("key_hash", flat=True)
+        .first()
+    )
 
 
 def _send(command: Command, text: str, sender: SmsSender, now: dt.datetime) -> SmsMessage:

@@ -21,7 +21,7 @@ from commands.models import Command
 from edge_client.contract.batch import BatchAnswer
 from links.models import Transport
 from links.services import link_count
-from sms.command_text import split_reference
+from sms.command_text import read_reference, split_reference
 from sms.errors import InvalidNumber
 from sms.gsm7 import on_air
 from sms.models import RAW_NUMBER_MAX, AuthorisedNumber, Direction, Role, SendStatus, SmsMessage
@@ -218,15 +218,17 @@ def _count_on_link(vessel: Vessel, entry: Mapping[str, Any]) -> None:
 def _sent_from_here(vessel: Vessel, text: str) -> bool:
     """Whether an SMS the glider received is one the shore sent it (sms_send_command): its
     text carries the reference of a command of the vessel that this shore texted, sent."""
-    _rest, uid = split_reference(text)
-    if uid is None:
+    _rest, token = split_reference(text)
+    ref = read_reference(token) if token else None
+    if ref is None:
         return False
     return SmsMessage.objects.filter(
         vessel=vessel,
         direction=Direction.OUT,
         origin_id__isnull=True,
         status=SendStatus.SENT,
-        commands__uid=uid,
+        commands__uid=ref.uid,
+        text=text,
     ).exists()
 
 

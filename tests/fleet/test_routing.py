@@ -20,7 +20,8 @@ from links.routing import Route
 from links.services import link_count
 from tests.sbd.conftest import IMEI, MtEndpoint, mt_endpoint, sbd_vessel  # noqa: F401 (fixtures)
 from tests.sms.test_route import Gateway, gateway  # noqa: F401 (a fixture)
-from vessels.models import Vessel
+from vessels.models import Vessel, VesselKey
+from vessels.services import vessel_key_issue, vessel_key_revoke
 
 pytestmark = pytest.mark.django_db
 
@@ -150,7 +151,9 @@ def test_a_refusing_link_hands_the_command_to_the_next(sbd_vessel: Vessel) -> No
     assert report.relayed == [(str(command.uid), Route.SBD)]
     command.refresh_from_db()
     assert command.relay == Relay.SBD
-    assert notes(command) == ["never heard over HTTP: sent by Iridium SBD"]
+    assert notes(command) == [
+        "never heard over HTTP: sent by Iridium SBD (not by sms: the gateway answered 500)"
+    ]
 
 
 def test_sms_is_only_for_a_glider(sbd_vessel: Vessel) -> None:  # noqa: F811
@@ -233,6 +236,7 @@ def test_a_silent_glider_gets_its_command_by_sms_before_sbd(
     settings.ALERTS_SMS_MODEM_URL, settings.ALERTS_SMS_GATEWAY_URL = "", gateway.url
     glider.sms_number, glider.imei = "+61400000077", IMEI
     glider.save()
+    vessel_key_issue(vessel=glider)  # its shore link's: the SMS's reference is signed with it
     heard_over_http(glider, ago_s=4 * glider.telemetry_period_s)
     command = command_enqueue(vessel=glider, kind="fhead", params={"bearing": 230})
     senders = configured_senders()
@@ -261,6 +265,7 @@ def test_a_failed_sms_hands_the_command_to_sbd(
     gateway.answers = [503]
     glider.sms_number, glider.imei = "+61400000077", IMEI
     glider.save()
+    vessel_key_issue(vessel=glider)
     command = command_enqueue(vessel=glider, kind="hold", params={}, urgent=True)
     report = route_pending(senders=configured_senders())
     assert report.relayed == [(str(command.uid), Route.SBD)]
@@ -350,3 +355,23 @@ def test_a_relay_spends_its_real_cost_of_the_budget(sbd_vessel: Vessel) -> None:
     command_enqueue(vessel=sbd_vessel, kind="disarm", params={})
     report = route_pending(senders={Route.SBD: lambda c, now: Sent("a long one", 5)})
     assert report.relayed == [(str(first.uid), Route.SBD)]  # 5 credits: the budget is spent
+
+
+def test_a_glider_without_an_active_key_is_not_texted_and_sbd_takes_it(
+    glider: Vessel,
+    gateway: Gateway,  # noqa: F811 (the fixture)
+    mt: MtEndpoint,
+    settings: Any,
+) -> None:
+    """Its SMS could not be signed (the glider refuses an unsigned reference): nothing is
+    texted, and the next link takes the command."""
+    settings.ALERTS_SMS_MODEM_URL, settings.ALERTS_SMS_GATEWAY_URL = "", gateway.url
+    glider.sms_number, glider.imei = "+61400000077", IMEI
+    glider.save()
+    key, _raw = vessel_key_issue(vessel=glider)
+    vessel_key_revoke(key=key)
+    assert not VesselKey.objects.filter(vessel=glider, revoked_at__isnull=True).exists()
+    command = command_enqueue(vessel=glider, kind="hold", params={}, urgent=True)
+    report = route_pending(senders=configured_senders())
+    assert report.relayed == [(str(command.uid), Route.SBD)]
+    assert gateway.received == [] and len(mt.posts) == 1

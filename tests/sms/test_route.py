@@ -20,14 +20,16 @@ from alerts.notify.sms import ModemSender
 from commands.models import Command
 from commands.services import command_enqueue
 from links.models import LinkDay
-from sms.command_text import read_reference, render, split_reference
+from sms.command_text import read_reference, render, split_reference, verified_uid
 from sms.errors import NotSayable, RouteNotConfigured
 from sms.gsm7 import on_air
 from sms.models import Direction, SendStatus, SmsMessage
 from sms.modem import ModemConfig
 from sms.modem.simulator import ModemServer, SimulatedModem
 from sms.services import sms_log_upload, sms_send_command
-from vessels.models import Vessel
+from sms.services.route import signing_key_hash
+from vessels.models import Vessel, VesselKey
+from vessels.services import vessel_key_issue, vessel_key_revoke
 
 pytestmark = pytest.mark.django_db
 
@@ -39,7 +41,13 @@ SHORE_PHONE = "+61400000001"
 def texted_glider(glider: Vessel) -> Vessel:
     glider.sms_number = GLIDER_PHONE
     glider.save(update_fields=["sms_number"])
+    vessel_key_issue(vessel=glider, label="shore link")
     return glider
+
+
+def key_hash(vessel: Vessel) -> str:
+    """The hash of the vessel's one key (the texted glider's)."""
+    return VesselKey.objects.get(vessel=vessel).key_hash
 
 
 @pytest.fixture
@@ -73,8 +81,10 @@ def test_a_command_goes_through_the_modem_logged_and_counted_once(texted_glider,
     finally:
         sender.close()
     ((number, text, reference),) = [(s.number, s.text, s.reference) for s in modem.sent]
-    assert number == GLIDER_PHONE and text == render("fhead", {"bearing": 230}, command.uid)
-    assert text.startswith("#FHEAD 230 ref:") and read_reference(text.split()[-1]) == command.uid
+    signed = key_hash(texted_glider)
+    assert number == GLIDER_PHONE and text == render("fhead", {"bearing": 230}, command.uid, signed)
+    assert text.startswith("#FHEAD 230 ref:")
+    assert verified_uid("#FHEAD 230", text.split()[-1], signed) == command.uid
     message.refresh_from_db()
     assert (message.direction, message.status, message.number) == ("out", "sent", GLIDER_PHONE)
     assert (message.text, message.reference, message.sent_at) == (text, str(reference), now)
@@ -163,11 +173,11 @@ def test_the_gliders_log_of_a_texted_command_is_not_counted_again(texted_glider,
     failed_cmd = fhead(texted_glider, 99)
     sender.close()
     at = timezone.now().replace(microsecond=0)
-    never_sent = render("fhead", {"bearing": 99}, failed_cmd.uid)  # the shore never sent it
+    never_sent = render("fhead", {"bearing": 99}, failed_cmd.uid, key_hash(texted_glider))
     entries = [
         upload_entry("g1", sent.text, at),
         upload_entry("g2", "#STATUS", at + dt.timedelta(seconds=1)),
-        upload_entry("g3", never_sent, at + dt.timedelta(seconds=2)),
+        upload_entry("g3", never_sent, at + dt.timedelta(seconds=2)),  # the shore never sent it
     ]
     answer = sms_log_upload(vessel=texted_glider, entries=entries)
     assert answer.accepted == 3
@@ -175,7 +185,60 @@ def test_the_gliders_log_of_a_texted_command_is_not_counted_again(texted_glider,
     assert (row.messages_out, row.credits) == (1, 3)  # the shore's SMS once, then #STATUS, g3
     assert row.messages_in == 2 and row.bytes_in == on_air("#STATUS")[0] + on_air(never_sent)[0]
     assert row.last_contact_at == at + dt.timedelta(seconds=2)  # still heard from
-    assert split_reference(sent.text)[1] == sent.commands.get().uid
+    assert read_reference(split_reference(sent.text)[1]).uid == sent.commands.get().uid
+
+
+def test_a_forged_text_under_a_sent_reference_is_counted_as_received(texted_glider, sim):
+    """The glider got a text carrying the reference of a command the shore sent, but not the
+    shore's text (the command changed under it): not the shore's SMS, so it is counted in."""
+    _modem, server = sim
+    sender = ModemSender(fast(server.url))
+    sent = sms_send_command(fhead(texted_glider, 230), sender=sender)
+    sender.close()
+    forged = sent.text.replace("#FHEAD 230", "#FHEAD 231")
+    at = timezone.now().replace(microsecond=0)
+    assert sms_log_upload(vessel=texted_glider, entries=[upload_entry("g1", forged, at)]).accepted
+    row = sms_row(texted_glider)
+    assert (row.messages_out, row.messages_in) == (1, 1)
+
+
+# -- the key the reference is signed with ------------------------------------------------------
+
+
+def test_the_reference_is_signed_with_the_active_key_used_most_recently(texted_glider, sim):
+    (first,) = VesselKey.objects.filter(vessel=texted_glider)
+    second, _raw = vessel_key_issue(vessel=texted_glider, label="new, never used")
+    assert signing_key_hash(texted_glider) == second.key_hash  # none used yet: the newest
+    now = timezone.now()
+    VesselKey.objects.filter(pk=first.pk).update(last_used_at=now)
+    assert signing_key_hash(texted_glider) == first.key_hash  # the one the glider presents
+    VesselKey.objects.filter(pk=second.pk).update(last_used_at=now + dt.timedelta(minutes=1))
+    assert signing_key_hash(texted_glider) == second.key_hash
+    vessel_key_revoke(key=second)  # revoked: never, however recently used
+    assert signing_key_hash(texted_glider) == first.key_hash
+    _modem, server = sim
+    sender = ModemSender(fast(server.url))
+    command = fhead(texted_glider)
+    message = sms_send_command(command, sender=sender)
+    sender.close()
+    token = split_reference(message.text)[1]
+    assert verified_uid("#FHEAD 230", token, first.key_hash) == command.uid
+    assert verified_uid("#FHEAD 230", token, second.key_hash) is None
+
+
+def test_without_an_active_key_the_route_says_it_cannot_sign(texted_glider, vessel_a, sim):
+    _modem, server = sim
+    (key,) = VesselKey.objects.filter(vessel=texted_glider)
+    vessel_key_revoke(key=key)
+    vessel_key_issue(vessel=vessel_a)  # another vessel's key never signs for this one
+    sender = ModemSender(fast(server.url))
+    try:
+        with pytest.raises(RouteNotConfigured, match="Wave Glider has no active vessel key"):
+            sms_send_command(fhead(texted_glider), sender=sender)
+    finally:
+        sender.close()
+    assert signing_key_hash(texted_glider) is None
+    assert not SmsMessage.objects.exists() and not LinkDay.objects.exists()
 
 
 def upload_entry(ident: str, text: str, at: dt.datetime) -> dict[str, Any]:

@@ -8,9 +8,10 @@ from pathlib import Path
 import pytest
 from django.core.management import CommandError, call_command
 
-from sms.bridge.process import REPLY_MARGIN_S, BridgeConfig, parse_ports
+from sms.bridge.process import REPLY_MARGIN_S, Bridge, BridgeConfig, parse_ports
 from sms.bridge.shore_config import ShoreConfig
 from sms.management.commands.run_wg_bridge import shore_loops
+from vessels.keys import hash_key
 from vessels.models import Vessel
 
 PORTS = {"vessel": "glider", "level2_port": "/dev/ttyAMA0", "modem_port": "/dev/ttyUSB2"}
@@ -112,3 +113,14 @@ def test_the_position_sms_period_is_off_by_default_and_at_least_a_minute() -> No
         BridgeConfig.from_env({**environ, "WG_POSITION_SMS_PERIOD_S": "6"})
     with pytest.raises(ValueError, match="WG_POSITION_SMS_PERIOD_S='hourly' is not a number"):
         BridgeConfig.from_env({**environ, "WG_POSITION_SMS_PERIOD_S": "hourly"})
+
+
+@pytest.mark.django_db
+def test_the_sms_link_checks_shore_references_with_the_shore_keys_hash(glider: Vessel) -> None:
+    """The shore signs its command SMS with the hash of the key this glider presents; the
+    bridge's SMS link checks with the hash of the same key, and without one checks nothing."""
+    ports = {"vessel": glider.slug, "level2_port": "loop://", "modem_port": "loop://"}
+    with_shore = BridgeConfig(**ports, shore_url="https://shore.example", shore_key="s3cret-key")
+    # Built, never run: no port is opened until the threads start.
+    assert Bridge(with_shore, vessel=glider).sms.shore_key_hash == hash_key("s3cret-key")
+    assert Bridge(BridgeConfig(**ports), vessel=glider).sms.shore_key_hash is None
