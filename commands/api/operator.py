@@ -11,7 +11,7 @@ from rest_framework.request import Request
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
-from commands.models import Command, CommandEvent, Source
+from commands.models import Command, CommandEvent, Relay, Source
 from commands.selectors import command_by_uid
 from commands.services import command_cancel, command_enqueue
 from vessels.api.fields import StrictBooleanField, StrictCharField
@@ -28,6 +28,14 @@ class CommandEventSerializer(serializers.ModelSerializer):
 class CommandSerializer(serializers.ModelSerializer):
     vessel = serializers.SlugRelatedField(slug_field="slug", read_only=True)
     events = CommandEventSerializer(many=True, read_only=True)
+    # Its own field: the model's choices leave out "" (not relayed), which the schema must list.
+    relay = serializers.ChoiceField(
+        [("", "not relayed"), *Relay.choices],
+        allow_blank=True,
+        read_only=True,
+        help_text="how the shore relayed it beside HTTP (docs/links.md#routing-per-vessel): "
+        '"" not relayed, sms, sbd, or none (no link could carry it)',
+    )
 
     class Meta:
         model = Command
