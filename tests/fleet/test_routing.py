@@ -18,8 +18,10 @@ from fleet.relays import configured_senders
 from fleet.routing import Refused, Sent, route_pending, routing_summary
 from links.routing import Route
 from links.services import link_count
+from tests.alerts.notify.conftest import Receiver as Gateway
+from tests.alerts.notify.conftest import receiver  # noqa: F401 (a fixture)
 from tests.sbd.conftest import IMEI, MtEndpoint, mt_endpoint, sbd_vessel  # noqa: F401 (fixtures)
-from tests.sms.test_route import Gateway, gateway  # noqa: F401 (a fixture)
+from tests.sms.test_route import gateway  # noqa: F401 (a fixture)
 from vessels.models import Vessel, VesselKey
 from vessels.services import vessel_key_issue, vessel_key_revoke
 
@@ -243,7 +245,8 @@ def test_a_silent_glider_gets_its_command_by_sms_before_sbd(
     assert set(senders) == {Route.SMS, Route.SBD}
     report = route_pending(senders=senders)
     assert report.relayed == [(str(command.uid), Route.SMS)]
-    [(_headers, body)] = gateway.received
+    [post] = gateway.received
+    body = post.json()
     assert body["to"] == "+61400000077" and body["text"].startswith("#FHEAD 230 ref:")
     assert mt.posts == []  # the cheaper link took it: SBD is not paid for as well
     command.refresh_from_db()

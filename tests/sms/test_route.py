@@ -5,11 +5,7 @@ driver; or an HTTP gateway, here a local server), logged, and counted once, as s
 from __future__ import annotations
 
 import datetime as dt
-import json
-import threading
 from collections.abc import Iterator
-from dataclasses import dataclass, field
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
 import pytest
@@ -28,6 +24,7 @@ from sms.modem import ModemConfig
 from sms.modem.simulator import ModemServer, SimulatedModem
 from sms.services import sms_log_upload, sms_send_command
 from sms.services.route import signing_key_hash
+from tests.alerts.notify.conftest import Receiver, receiver  # noqa: F401 (a fixture)
 from vessels.models import Vessel, VesselKey
 from vessels.services import vessel_key_issue, vessel_key_revoke
 
@@ -102,9 +99,9 @@ def test_the_configured_gateway_sends_it(texted_glider, gateway, settings):
     command = command_enqueue(vessel=texted_glider, kind="waypoint",
                               params={"index": 1, "lat": -32.038, "lon": 115.3325})  # fmt: skip
     message = sms_send_command(command, sender=sms_sender_from_settings())
-    ((headers, body),) = gateway.received
-    assert headers["Authorization"] == "Bearer gw-token"
-    assert body == {"to": GLIDER_PHONE, "text": message.text}
+    [post] = gateway.received
+    assert post.headers["Authorization"] == "Bearer gw-token"
+    assert post.json() == {"to": GLIDER_PHONE, "text": message.text}
     assert message.text.startswith("#WAYPOINT 1 -32.038 115.3325 ref:")
     assert message.status == SendStatus.SENT and message.reference == ""
     assert sms_row(texted_glider).messages_out == 1
@@ -247,37 +244,8 @@ def upload_entry(ident: str, text: str, at: dt.datetime) -> dict[str, Any]:
             "outcome": "accepted"}  # fmt: skip
 
 
-# -- a local HTTP SMS gateway ------------------------------------------------------------------
-
-
-@dataclass
-class Gateway:
-    url: str = ""
-    answers: list[int] = field(default_factory=list)
-    received: list[tuple[dict[str, str], Any]] = field(default_factory=list)
-
-
 @pytest.fixture
-def gateway() -> Iterator[Gateway]:
-    gw = Gateway()
-
-    class Handler(BaseHTTPRequestHandler):
-        def do_POST(self) -> None:  # noqa: N802 - http.server's name
-            body = self.rfile.read(int(self.headers.get("Content-Length", 0)))
-            gw.received.append((dict(self.headers.items()), json.loads(body)))
-            status = gw.answers.pop(0) if gw.answers else 202
-            self.send_response(status)
-            self.send_header("Content-Length", "0")
-            self.end_headers()
-
-        def log_message(self, *_args: Any) -> None:
-            pass
-
-    server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-    server.daemon_threads = True
-    gw.url = f"http://127.0.0.1:{server.server_address[1]}/sms"
-    thread = threading.Thread(target=server.serve_forever, args=(0.05,), daemon=True)
-    thread.start()
-    yield gw
-    server.shutdown()
-    server.server_close()
+def gateway(receiver: Receiver) -> Receiver:  # noqa: F811 (the fixture)
+    """The shore's HTTP SMS gateway: the alerts' local receiver, recording each POST and
+    answering each with the next of its ``answers`` (then 204)."""
+    return receiver
